@@ -1,0 +1,48 @@
+# mcpt: every target installs what it needs (idempotent), so a fresh machine needs only Python.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+SCENE ?= scenes/cornell-box.yaml
+
+.PHONY: all setup system-deps render test test-osmesa bench stability wheel clean
+
+all: test
+
+# Debian packages behind headless GL: EGL + llvmpipe, and OSMesa. Installed only when missing.
+system-deps:
+	@if ! ldconfig -p | grep -q 'libOSMesa.so' || ! ldconfig -p | grep -q 'libEGL_mesa.so' \
+	    || ! ldconfig -p | grep -q 'libGL.so.1'; then \
+	  echo "installing Mesa EGL/OSMesa (apt-get)"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	    libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libosmesa6 >/dev/null; \
+	fi
+
+$(STAMP): pyproject.toml | system-deps
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[dev]'
+	touch $(STAMP)
+
+setup: system-deps $(STAMP)
+
+render: setup
+	mkdir -p out
+	$(VENV)/bin/mcpt render $(SCENE) --spp 256 -o out/cornell-box.png
+	$(VENV)/bin/mcpt render $(SCENE) --spp 256 -o out/cornell-box.exr --quiet
+
+test: setup
+	$(PY) -m pytest -q
+
+test-osmesa: setup
+	MCPT_GL_BACKEND=osmesa $(PY) -m pytest -q
+
+bench: setup
+	$(PY) bench/run.py --quick
+
+wheel: setup
+	$(PY) -m pip wheel --no-deps -w dist .
+
+clean:
+	rm -rf out dist build *.egg-info

@@ -1,0 +1,35 @@
+"""Options shared by commands that render."""
+
+from __future__ import annotations
+
+import re
+
+import click
+
+from mcpt.context import BACKENDS
+
+
+def parse_resolution(ctx, param, value):
+    if value is None:
+        return None
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", value)
+    if not m:
+        raise click.BadParameter(f"{value!r} is not WIDTHxHEIGHT (e.g. 256x256)")
+    return int(m.group(1)), int(m.group(2))
+
+
+def render_options(fn):
+    for opt in reversed([
+        click.option("--spp", type=int, help="Samples per pixel (overrides the scene)."),
+        click.option("--bounces", type=int, help="Max scattering events: 0 emitters only, 1 direct light."),
+        click.option("--seed", type=int, help="Seed of every random number (same seed, same image)."),
+        click.option("--resolution", callback=parse_resolution, metavar="WxH",
+                     help="Image size in pixels, e.g. 512x512."),
+        click.option("--gl-backend", type=click.Choice(BACKENDS), default=None,
+                     help="OpenGL back end (default: $MCPT_GL_BACKEND or auto = EGL, then OSMesa)."),
+        click.option("--features", "features_mode", type=click.Choice(["scene", "all"]), default="scene",
+                     show_default=True,
+                     help="'scene': compile only what the scene uses; 'all': the full uber-shader."),
+    ]):
+        fn = opt(fn)
+    return fn

@@ -1,0 +1,40 @@
+// Shared constants and small helpers.
+const float PI = 3.14159265358979323846;
+const float INV_PI = 0.31830988618379067154;
+const float INF = 1.0 / 0.0;
+
+struct Ray { vec3 o; vec3 d; };
+
+// True for +-Inf and NaN. A bit test, because llvmpipe compiles with fast-math and may fold
+// isnan()/isinf() to false (measured: ../shared/research/anchors-reliability.md).
+bool non_finite(float x) { return (floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u; }
+bool non_finite(vec3 v) { return non_finite(v.x) || non_finite(v.y) || non_finite(v.z); }
+
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+// Offset a ray origin off a surface, scaled to the position's magnitude in float ulps rather
+// than by a fixed epsilon (Waechter & Binder, "A Fast and Robust Method for Avoiding
+// Self-Intersection", Ray Tracing Gems ch. 6). Integer arithmetic on the bits is immune to
+// fast-math reassociation.
+vec3 offset_ray(vec3 p, vec3 n) {
+    const float ORIGIN = 1.0 / 32.0;
+    const float FLOAT_SCALE = 1.0 / 65536.0;
+    const float INT_SCALE = 256.0;
+    ivec3 of_i = ivec3(INT_SCALE * n);
+    vec3 p_i = vec3(
+        intBitsToFloat(floatBitsToInt(p.x) + (p.x < 0.0 ? -of_i.x : of_i.x)),
+        intBitsToFloat(floatBitsToInt(p.y) + (p.y < 0.0 ? -of_i.y : of_i.y)),
+        intBitsToFloat(floatBitsToInt(p.z) + (p.z < 0.0 ? -of_i.z : of_i.z)));
+    return vec3(abs(p.x) < ORIGIN ? p.x + FLOAT_SCALE * n.x : p_i.x,
+                abs(p.y) < ORIGIN ? p.y + FLOAT_SCALE * n.y : p_i.y,
+                abs(p.z) < ORIGIN ? p.z + FLOAT_SCALE * n.z : p_i.z);
+}
+
+// Orthonormal basis around a unit normal (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
+void onb(vec3 n, out vec3 t, out vec3 b) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    b = vec3(c, s + n.y * n.y * a, -n.y);
+}

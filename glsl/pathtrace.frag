@@ -1,0 +1,121 @@
+// The path tracer: one sample per pixel per pass, added into a float32 accumulation target.
+// Output: rgb = radiance estimate, a = 1 when the sample was non-finite and dropped (so the
+// alpha channel of the accumulation counts dropped samples per pixel).
+#include "common.glsl"
+#include "sampler.glsl"
+#include "bvh.glsl"
+#include "materials.glsl"
+#include "camera.glsl"
+#if MCPT_NEE
+#include "lights.glsl"
+#endif
+#if MCPT_MAT_DIFFUSE
+#include "bsdf_diffuse.glsl"
+#endif
+
+uniform ivec4 u_tile;    // x0, y0 (rows from the top), width, height of the tile being rendered
+#if MCPT_CLAMP
+uniform float u_clamp;   // biased: largest allowed sample component (off unless --clamp)
+#endif
+
+layout(location = 0) out vec4 o_color;
+
+// Power heuristic with beta = 2 (Veach 1997, sec. 9.2.4).
+float power_heuristic(float a, float b) {
+    float a2 = a * a, b2 = b * b;
+    return a2 / (a2 + b2);
+}
+
+// Bounce convention (scene.json): emission seen at hit k ends a path with k - 1 scattering
+// events; scattering at hit k is bounce k, allowed while k <= MCPT_BOUNCES.
+vec3 radiance(Ray ray) {
+    vec3 L = vec3(0.0);
+    vec3 beta = vec3(1.0);
+    float pdf_bsdf_prev = 0.0;
+    Hit h;
+    if (!trace_closest(ray, h)) return L;
+    for (int k = 1; ; ++k) {
+        Material m = material(tri_material(h.tri));
+        vec3 n = normalize(tri_normal_raw(h.tri));
+        float cos_o = dot(n, ray.d);  // < 0: the ray arrives at the front side
+        if (cos_o < 0.0 && max(m.emission.r, max(m.emission.g, m.emission.b)) > 0.0) {
+            float w = 1.0;
+#if MCPT_NEE
+            if (k > 1) {
+  #if MCPT_MIS
+                // Density with which NEE would have produced this point, as a solid angle.
+                float pdf_light = m.light_pdf_area * h.t * h.t / -cos_o;
+                w = power_heuristic(pdf_bsdf_prev, pdf_light);
+  #else
+                w = 0.0;  // NEE-only: light is found by light sampling alone
+  #endif
+            }
+#endif
+            L += beta * m.emission * w;
+        }
+        if (k > MCPT_BOUNCES) break;
+        if (max(m.albedo.r, max(m.albedo.g, m.albedo.b)) <= 0.0) break;  // pure emitter, black
+        vec3 x = tri_point(h.tri, h.bary);
+        vec3 ns = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
+        vec3 xo = offset_ray(x, ns);
+        int dim = DIM_BOUNCE(k);
+#if MCPT_NEE
+        {
+            float pmf;
+            int lt = light_pick(rand_at(dim + DIM_LIGHT_PICK), pmf);
+            vec2 bb = sample_triangle_bary(rand2_at(dim + DIM_LIGHT_UV));
+            vec3 y = tri_point(lt, bb);
+            vec3 nl = tri_normal_raw(lt);
+            float area2 = length(nl);  // twice the area
+            nl /= area2;
+            vec3 dv = y - xo;
+            float d2 = dot(dv, dv);
+            float dist = sqrt(d2);
+            vec3 wi = dv / dist;
+            float cos_l = -dot(nl, wi);
+            vec3 fc = diffuse_eval(m.albedo, ns, wi);
+            if (cos_l > 0.0 && max(fc.r, max(fc.g, fc.b)) > 0.0) {
+                float pdf_light = pmf * (2.0 / area2) * d2 / cos_l;
+                vec3 yo = offset_ray(y, nl);
+                vec3 seg = yo - xo;
+                float seg_len = length(seg);
+                if (visible(Ray(xo, seg / seg_len), seg_len)) {
+                    float w = 1.0;
+  #if MCPT_MIS
+                    w = power_heuristic(pdf_light, diffuse_pdf(ns, wi));
+  #endif
+                    L += beta * fc * material(tri_material(lt)).emission * (w / pdf_light);
+                }
+            }
+        }
+#endif
+        float pdf;
+        vec3 wi = sample_cosine(ns, rand2_at(dim + DIM_BSDF_UV), pdf);
+        beta *= m.albedo;  // f cos / pdf for the Lambertian
+        pdf_bsdf_prev = pdf;
+#if MCPT_RR
+        // Russian roulette on the throughput (unbiased: survivors are divided by q).
+        if (k >= MCPT_RR_START) {
+            float q = min(max(beta.r, max(beta.g, beta.b)), 0.95);
+            if (rand_at(dim + DIM_RR) >= q) break;
+            beta /= q;
+        }
+#endif
+        ray = Ray(xo, wi);
+        if (!trace_closest(ray, h)) break;
+    }
+    return L;
+}
+
+void main() {
+    ivec2 frag = ivec2(gl_FragCoord.xy);
+    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
+    ivec2 local = pixel - u_tile.xy;
+    sampler_init(local.y * u_tile.z + local.x);
+    vec3 L = radiance(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+#if MCPT_CLAMP
+    float mx = max(L.r, max(L.g, L.b));
+    if (mx > u_clamp) L *= u_clamp / mx;
+#endif
+    o_color = non_finite(L) ? vec4(0.0, 0.0, 0.0, 1.0) : vec4(L, 0.0);
+}
