@@ -176,3 +176,15 @@ def create_context(backend: str | None = None) -> GLContext:
         except GLError as exc:
             errors.append(str(exc))
     raise GLError("no GL back end works: " + "; ".join(errors))
+
+
+_shared: dict[str, GLContext] = {}
+
+
+def shared_context(backend: str | None = None) -> GLContext:
+    """One context per back end per process, created on first use: creating one costs ~50 ms and
+    compiled programs are cached on it (mcpt/shader.py)."""
+    key = (backend or os.environ.get("MCPT_GL_BACKEND") or "auto").lower()
+    if key not in _shared:
+        _shared[key] = create_context(key)
+    return _shared[key]

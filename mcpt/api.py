@@ -1,0 +1,78 @@
+"""High-level entry points used by the CLI, the benchmarks and the tests.
+
+``prepare`` goes scene file -> (GL context, world, features, renderer); ``render_scene`` adds the
+passes and writes the image with its metadata.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import __version__
+from .context import GLContext, shared_context
+from .features import Features
+from .image import check_output_path, write_image
+from .loader import World, load_world
+from .render import Renderer, RenderResult
+from .scene import Scene, load_scene
+
+@dataclass
+class Prepared:
+    gl: GLContext
+    scene: Scene
+    world: World
+    features: Features
+    renderer: Renderer
+    setup_seconds: float
+
+
+def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
+            gl_backend=None, features_mode: str = "scene", clamp: float | None = None,
+            feature_flags: dict | None = None) -> Prepared:
+    t0 = time.perf_counter()
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene)
+    scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
+    gl = shared_context(gl_backend)
+    world = load_world(scene)
+    feats = world.features(clamp=clamp is not None, **(feature_flags or {}))
+    if features_mode == "all":
+        feats = feats.everything()
+    renderer = Renderer(gl, world, feats)
+    return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0)
+
+
+def metadata(p: Prepared, result: RenderResult) -> dict:
+    cam = p.scene.camera
+    return {
+        "scene": str(p.scene.source_path) if p.scene.source_path else (p.scene.name or ""),
+        "width": cam.width, "height": cam.height, "spp": result.spp, "bounces": result.bounces,
+        "seed": result.seed, "render_seconds": result.render_seconds,
+        "random_seconds": result.random_seconds, "setup_seconds": p.setup_seconds,
+        "paths_per_second": result.paths_per_second, "dropped_samples": result.dropped_samples,
+        "gl_backend": p.gl.backend, "gl_renderer": p.gl.renderer, "gl_version": p.gl.version,
+        "features": {k: v for k, v in p.features.defines().items()},
+        "triangles": p.world.n_triangles, "mcpt_version": __version__,
+        **{k: v for k, v in result.setup.items()},
+    }
+
+
+def render_scene(scene, *, output=None, spp=None, bounces=None, seed=None, resolution=None,
+                 gl_backend=None, features_mode="scene", clamp=None, exposure=0.0, progress=None):
+    """Render a scene (file or Scene) and write ``output`` if given; returns (result, metadata)."""
+    if output is not None:
+        check_output_path(output)
+    p = prepare(scene, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
+                gl_backend=gl_backend, features_mode=features_mode, clamp=clamp)
+    if progress is not None and hasattr(progress, "pixels"):
+        progress.pixels = p.scene.camera.width * p.scene.camera.height
+    rs = p.scene.render
+    result = p.renderer.render(rs.spp, rs.seed, progress=progress, clamp=clamp)
+    meta = metadata(p, result)
+    p.renderer.release()
+    if output is not None:
+        exr_meta = {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}
+        write_image(output, result.image, exr_meta, exposure)
+    return result, meta
