@@ -76,3 +76,26 @@ def render_scene(scene, *, output=None, spp=None, bounces=None, seed=None, resol
         exr_meta = {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}
         write_image(output, result.image, exr_meta, exposure)
     return result, meta
+
+
+def describe(scene, **kwargs) -> dict:
+    """Everything ``mcpt info`` shows: counts, BVH, features, buffer bytes, GL limits."""
+    p = prepare(scene, **kwargs)
+    try:
+        cam = p.scene.camera
+        return {
+            "scene": {"file": str(p.scene.source_path), "name": p.scene.name or "",
+                      "resolution": [cam.width, cam.height], "spp": p.scene.render.spp,
+                      "bounces": p.features.bounces, "seed": p.scene.render.seed},
+            "counts": {k: v for k, v in p.world.stats.items() if k != "bvh"},
+            "bvh": p.world.bvh.stats(),
+            "features": {"key": dict(p.features.key), "defines": p.features.defines()},
+            "buffers": {**{k: v for k, v in p.renderer.setup["upload_bytes"].items()},
+                        "random_per_pass": p.renderer.setup["random_bytes_per_pass"]},
+            "gl": {**p.gl.describe(), **p.gl.limits()},
+            "setup": {"compile_seconds": p.renderer.setup["compile_seconds"],
+                      "upload_seconds": p.renderer.setup["upload_seconds"],
+                      "tiles": p.renderer.setup["tiles"], "total_seconds": p.setup_seconds},
+        }
+    finally:
+        p.renderer.release()

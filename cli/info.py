@@ -1,0 +1,33 @@
+"""``mcpt info``: what a scene contains and what rendering it would compile and upload."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from .main import main, reports_errors
+from .options import render_options
+
+
+@main.command()
+@click.argument("scene_file", type=click.Path(dir_okay=False))
+@render_options
+@click.option("--json", "as_json", is_flag=True, help="Emit JSON on stdout.")
+@reports_errors
+def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, as_json):
+    """Counts, BVH statistics, features, buffer sizes and GL limits of SCENE_FILE."""
+    from mcpt.api import describe
+
+    report = describe(scene_file, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
+                      gl_backend=gl_backend, features_mode=features_mode)
+    if as_json:
+        click.echo(json.dumps(report, indent=2))
+        return
+    for section, body in report.items():
+        if isinstance(body, dict):
+            click.echo(f"{section}:")
+            for k, v in body.items():
+                click.echo(f"  {k}: {v}")
+        else:
+            click.echo(f"{section}: {body}")

@@ -1,0 +1,520 @@
+"""Median-split bounding volume hierarchy over triangles, flattened for the GPU.
+
+Build: object-median split along the longest axis of each node's centroid bounds. The tree is
+built level by level with every node of a level handled by the same numpy operations, so the
+Python work is O(depth), not O(triangles) or O(nodes): three index lists, each sorted by one
+centroid axis, are kept grouped by node and sorted inside every node; splitting a node at its
+median on axis k is then "the first half of list k goes left", and all three lists are
+stable-partitioned with one cumulative sum per level (the classic presorted kd-tree build).
+Leaves hold at most `max_leaf` triangles; nodes whose centroids all coincide are still split
+in half by position, so depth is at most ceil(log2(F / max_leaf)) + 1 for any input.
+
+GPU layout (`BVH.nodes`, (M, 8) uint32, row-major; upload with `nodes.tobytes()` into an
+RGBA32UI texture buffer, node i = texels 2i and 2i+1, read floats with uintBitsToFloat)::
+
+    texel 2i   = (bmin.x, bmin.y, bmin.z, a)      bmin/bmax: float32 bit patterns
+    texel 2i+1 = (bmax.x, bmax.y, bmax.z, b)
+    leaf:      a = first triangle (index into the REORDERED triangles), b = count | 0x80000000
+    interior:  left child = i + 1 (depth-first pre-order), a = right child index,
+               b = split axis (0 = x, 1 = y, 2 = z); b < 0x80000000 tells it is interior
+    node 0 is the root.
+
+Reordered triangle j is original triangle `order[j]`: upload `tris[bvh.order]` (and reorder
+any per-triangle data, e.g. material ids, the same way).
+
+Boxes are computed in float64 and rounded outward to float32, so each float32 box contains
+the float32 vertices of its triangles, and a parent box contains its children's boxes exactly.
+A traversal still needs a conservative slab test (pad tmax by a few ulps) to never miss a
+hit whose point lies on a box face, e.g. axis-aligned walls whose boxes are flat.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "BVH",
+    "LEAF_FLAG",
+    "MAX_STACK",
+    "build_bvh",
+    "brute_force_closest_hit",
+    "bvh_closest_hit",
+]
+
+#: Size of the per-ray traversal stack in the GLSL shader (entries of node indices). The stack
+#: holds at most one deferred (far) child per level, so depth + 2 entries are always enough;
+#: `build_bvh` refuses trees that would overflow it (median splits reach depth 62 only at
+#: 2^60 triangles, so this never fires in practice).
+MAX_STACK = 64
+
+#: Top bit of texel1.w marks a leaf; the remaining 31 bits hold the triangle count.
+LEAF_FLAG = 0x80000000
+
+
+@dataclass(frozen=True, eq=False)
+class BVH:
+    """A flattened BVH; arrays are read-only.
+
+    Attributes:
+        nodes: (M, 8) uint32 node records, layout in the module docstring.
+        order: (F,) int64 triangle permutation: reordered triangle j is original `order[j]`.
+        depth: nodes on the longest root-to-leaf path (a lone root leaf has depth 1).
+        max_leaf: the leaf-size limit the tree was built with.
+        build_seconds: wall-clock build time in seconds.
+    """
+
+    nodes: np.ndarray
+    order: np.ndarray
+    depth: int
+    max_leaf: int
+    build_seconds: float
+
+    def __post_init__(self) -> None:
+        self.nodes.flags.writeable = False
+        self.order.flags.writeable = False
+
+    @property
+    def num_nodes(self) -> int:
+        return int(self.nodes.shape[0])
+
+    @property
+    def num_triangles(self) -> int:
+        return int(self.order.shape[0])
+
+    @property
+    def bounds_min(self) -> np.ndarray:
+        """(M, 3) float32 lower box corners (a view of `nodes`)."""
+        return self.nodes[:, 0:3].view(np.float32)
+
+    @property
+    def bounds_max(self) -> np.ndarray:
+        """(M, 3) float32 upper box corners (a view of `nodes`)."""
+        return self.nodes[:, 4:7].view(np.float32)
+
+    @property
+    def is_leaf(self) -> np.ndarray:
+        """(M,) bool leaf mask."""
+        return (self.nodes[:, 7] & LEAF_FLAG) != 0
+
+    @property
+    def leaf_first(self) -> np.ndarray:
+        """(M,) int64 first reordered triangle of each leaf (meaningless for interior nodes)."""
+        return self.nodes[:, 3].astype(np.int64)
+
+    @property
+    def leaf_count(self) -> np.ndarray:
+        """(M,) int64 triangle count of each leaf, 0 for interior nodes."""
+        return np.where(self.is_leaf, self.nodes[:, 7] & ~np.uint32(LEAF_FLAG), 0).astype(np.int64)
+
+    def stats(self) -> dict:
+        """Summary numbers for logs, `mcpt info` and benchmarks."""
+        counts = self.leaf_count[self.is_leaf]
+        return {
+            "nodes": self.num_nodes,
+            "leaves": int(counts.size),
+            "depth": self.depth,
+            "max_leaf_size": int(counts.max()) if counts.size else 0,
+            "mean_leaf_size": float(counts.mean()) if counts.size else 0.0,
+            "build_seconds": self.build_seconds,
+            "triangles": self.num_triangles,
+        }
+
+
+def build_bvh(tri_vertices: np.ndarray, max_leaf: int = 4) -> BVH:
+    """Build a median-split BVH over triangles.
+
+    Args:
+        tri_vertices: (F, 3, 3) corner positions (triangle, corner, xyz) in scene units,
+            float32 or float64; must be finite. F = 0 gives a single empty leaf that no ray hits.
+        max_leaf: maximum triangles per leaf (>= 1).
+
+    Returns:
+        The flattened `BVH` (see the module docstring for the node layout).
+
+    Raises:
+        ValueError: bad shape, non-finite coordinates, max_leaf < 1, or F >= 2^31.
+        RuntimeError: the tree would be deeper than the GPU stack allows (`MAX_STACK`).
+    """
+    t_start = time.perf_counter()
+    tris = np.asarray(tri_vertices)
+    if tris.ndim != 3 or tris.shape[1:] != (3, 3):
+        raise ValueError(f"tri_vertices must have shape (F, 3, 3), got {tris.shape}")
+    if not 1 <= int(max_leaf) < LEAF_FLAG:
+        raise ValueError(f"max_leaf must be in [1, 2^31), got {max_leaf}")
+    max_leaf = int(max_leaf)
+    n_tris = tris.shape[0]
+    if n_tris >= LEAF_FLAG:
+        raise ValueError(f"{n_tris} triangles do not fit the 31-bit leaf fields")
+    tris = tris.astype(np.float64, copy=False)
+    if not np.isfinite(tris).all():
+        bad = int((~np.isfinite(tris).all(axis=(1, 2))).sum())
+        raise ValueError(f"{bad} triangles have non-finite coordinates")
+
+    if n_tris == 0:
+        # Inverted box (+inf, -inf): every slab test misses, so an empty scene renders black.
+        nodes = np.zeros((1, 8), np.uint32)
+        nodes[0, 0:3] = np.full(3, np.inf, np.float32).view(np.uint32)
+        nodes[0, 4:7] = np.full(3, -np.inf, np.float32).view(np.uint32)
+        nodes[0, 7] = LEAF_FLAG
+        return BVH(nodes, np.zeros(0, np.int64), 1, max_leaf, time.perf_counter() - t_start)
+
+    centroids = (tris[:, 0] + tris[:, 1] + tris[:, 2]) / 3.0  # (F, 3); 4x faster than mean(axis=1)
+    levels, order = _split_levels(centroids, max_leaf)
+    nodes = _flatten(levels, order, tris, n_tris)
+    depth = len(levels)
+    if depth + 2 > MAX_STACK:
+        raise RuntimeError(f"BVH depth {depth} needs a traversal stack larger than MAX_STACK={MAX_STACK}")
+    return BVH(nodes, order.astype(np.int64), depth, max_leaf, time.perf_counter() - t_start)
+
+
+# --------------------------------------------------------------------------------------------
+# build internals
+
+
+@dataclass
+class _Level:
+    """Nodes of one tree level; node ids are `first_id + arange(len(start))`."""
+
+    first_id: int
+    start: np.ndarray  # first position of the node's triangles in the sorted lists
+    count: np.ndarray  # number of triangles
+    left: np.ndarray  # id of the left child (right = left + 1), -1 for a leaf
+    axis: np.ndarray  # split axis, -1 for a leaf
+
+
+def _split_levels(centroids: np.ndarray, max_leaf: int) -> tuple[list[_Level], np.ndarray]:
+    """Split nodes level by level; returns the levels and the final triangle order."""
+    n_tris = len(centroids)
+    # lists[k] = triangle ids grouped by node, sorted by centroid k inside each node. Stable
+    # sorts keep ties in id order, which makes the build deterministic.
+    lists = np.stack([np.argsort(centroids[:, k], kind="stable") for k in range(3)])
+    flat_lists = lists.reshape(-1)  # view: flat_lists[k * F + i] is lists[k, i]
+    goes_right = np.zeros(n_tris, dtype=bool)  # scratch, only read where just written
+
+    levels: list[_Level] = []
+    start = np.zeros(1, np.int64)
+    count = np.array([n_tris], np.int64)
+    first_id = 0
+    while start.size:
+        split = count > max_leaf
+        n_split = int(split.sum())
+        next_id = first_id + start.size
+        left = np.full(start.size, -1, np.int64)
+        left[split] = next_id + 2 * np.arange(n_split)
+        axis = np.full(start.size, -1, np.int64)
+        levels.append(_Level(first_id, start, count, left, axis))
+        if n_split == 0:
+            break
+
+        s, c = start[split], count[split]
+        last = s + c - 1
+        # Each list is sorted inside the node, so centroid bounds are its first/last entries.
+        extent = np.stack(
+            [centroids[lists[k, last], k] - centroids[lists[k, s], k] for k in range(3)], axis=1
+        )
+        node_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
+        axis[split] = node_axis
+        mid = s + c // 2  # object median: the left child gets floor(c / 2) triangles
+
+        # Positions of all triangles of the splitting nodes, as one flat array.
+        seg = np.repeat(np.arange(n_split), c)
+        seg_offset = np.cumsum(c) - c  # where each node starts inside `pos`
+        pos = np.arange(seg.size) + np.repeat(s - seg_offset, c)
+        seg_start, seg_mid = s[seg], mid[seg]
+
+        # Side of every triangle: the upper half of its node's list on the node's split axis.
+        # (Flat indices: 1-D fancy indexing is much faster than lists[axis, pos].)
+        goes_right[flat_lists[node_axis[seg] * n_tris + pos]] = pos >= seg_mid
+
+        # Stable partition of every list inside every node: left triangles keep their order
+        # from the node start, right ones from the median.
+        pos_in_node = pos - seg_start
+        for k in range(3):
+            ids = lists[k][pos]
+            is_left = ~goes_right[ids]
+            n_left_incl = np.cumsum(is_left)
+            before_node = np.concatenate(([0], n_left_incl))[seg_offset]
+            left_rank = n_left_incl - is_left - before_node[seg]
+            new_pos = np.where(is_left, seg_start + left_rank, seg_mid + (pos_in_node - left_rank))
+            lists[k][new_pos] = ids
+
+        start = np.stack([s, mid], axis=1).ravel()
+        count = np.stack([c // 2, c - c // 2], axis=1).ravel()
+        first_id = next_id
+    # Leaves never move once made, so every list now holds the same leaf-ordered permutation.
+    return levels, lists[0]
+
+
+def _round_out(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Round float64 box corners outward to float32 values (returned as float64)."""
+    lo32 = lo.astype(np.float32)
+    hi32 = hi.astype(np.float32)
+    lo32 = np.where(lo32.astype(np.float64) > lo, np.nextafter(lo32, np.float32(-np.inf)), lo32)
+    hi32 = np.where(hi32.astype(np.float64) < hi, np.nextafter(hi32, np.float32(np.inf)), hi32)
+    return lo32.astype(np.float64), hi32.astype(np.float64)
+
+
+def _flatten(levels: list[_Level], order: np.ndarray, tris: np.ndarray, n_tris: int) -> np.ndarray:
+    """Compute boxes bottom-up, renumber depth-first pre-order, pack (M, 8) uint32."""
+    start = np.concatenate([lv.start for lv in levels])
+    count = np.concatenate([lv.count for lv in levels])
+    left = np.concatenate([lv.left for lv in levels])
+    axis = np.concatenate([lv.axis for lv in levels])
+    n_nodes = start.size
+    leaf = left < 0
+
+    # Leaf boxes: leaves partition [0, F) of the final order, so one reduceat does them all.
+    leaf_ids = np.flatnonzero(leaf)
+    leaf_ids = leaf_ids[np.argsort(start[leaf_ids])]
+    tri_lo = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2])[order]
+    tri_hi = np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2])[order]
+    lo = np.empty((n_nodes, 3))
+    hi = np.empty((n_nodes, 3))
+    lo[leaf_ids], hi[leaf_ids] = _round_out(
+        np.minimum.reduceat(tri_lo, start[leaf_ids], axis=0),
+        np.maximum.reduceat(tri_hi, start[leaf_ids], axis=0),
+    )
+
+    # Interior boxes and subtree sizes bottom-up; children always live on the next level.
+    subtree = np.ones(n_nodes, np.int64)
+    for lv in reversed(levels):
+        ids = lv.first_id + np.flatnonzero(lv.left >= 0)
+        if ids.size == 0:
+            continue
+        lc = left[ids]
+        lo[ids] = np.minimum(lo[lc], lo[lc + 1])  # exact: children are already float32 values
+        hi[ids] = np.maximum(hi[lc], hi[lc + 1])
+        subtree[ids] = 1 + subtree[lc] + subtree[lc + 1]
+
+    # Depth-first pre-order: left child right after its parent, right child after the whole
+    # left subtree. Lets the shader skip storing the left index.
+    pre = np.zeros(n_nodes, np.int64)
+    for lv in levels:
+        ids = lv.first_id + np.flatnonzero(lv.left >= 0)
+        lc = left[ids]
+        pre[lc] = pre[ids] + 1
+        pre[lc + 1] = pre[ids] + 1 + subtree[lc]
+
+    right = np.where(leaf, 0, left + 1)  # 0: placeholder index for leaves, masked below
+    a = np.where(leaf, start, pre[right])
+    b = np.where(leaf, count | LEAF_FLAG, axis)
+    nodes = np.empty((n_nodes, 8), np.uint32)
+    nodes[pre, 0:3] = lo.astype(np.float32).view(np.uint32)
+    nodes[pre, 3] = a
+    nodes[pre, 4:7] = hi.astype(np.float32).view(np.uint32)
+    nodes[pre, 7] = b
+    return nodes
+
+
+# --------------------------------------------------------------------------------------------
+# CPU reference intersection (tests, debugging): float64 throughout.
+
+# Relative slack on slab-test distances: more than the rounding error of the slab arithmetic
+# (pbrt's 1 + 2 * gamma(3)), so a hit on a box face is never culled.
+_SLAB_PAD = 1.0 + 8.0 * np.finfo(np.float64).eps
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot product, written out so every row rounds the same way in any batch."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.stack(
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ],
+        axis=1,
+    )
+
+
+def _moller_trumbore(tris: np.ndarray, o: np.ndarray, d: np.ndarray, tmin: float) -> np.ndarray:
+    """Ray-triangle distances for matching rows of (n, 3, 3) tris and (n, 3) rays; inf = miss.
+
+    t is in units of |d|. Both references below call this same function on the same float64
+    data, so equal (ray, triangle) pairs give bit-identical t.
+    """
+    v0 = tris[:, 0]
+    e1 = tris[:, 1] - v0
+    e2 = tris[:, 2] - v0
+    p = _cross(d, e2)
+    det = _dot(e1, p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv_det = 1.0 / det
+        s = o - v0
+        u = _dot(s, p) * inv_det
+        q = _cross(s, e1)
+        v = _dot(d, q) * inv_det
+        t = _dot(e2, q) * inv_det
+        hit = (det != 0.0) & (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (t > tmin)
+    return np.where(hit, t, np.inf)
+
+
+def _check_rays(origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    o = np.asarray(origins, dtype=np.float64)
+    d = np.asarray(dirs, dtype=np.float64)
+    if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
+        raise ValueError(f"origins and dirs must both be (R, 3), got {o.shape} and {d.shape}")
+    return o, d
+
+
+def brute_force_closest_hit(
+    tris: np.ndarray, origins: np.ndarray, dirs: np.ndarray, tmin: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hit of every ray against every triangle (reference for tests).
+
+    Möller–Trumbore in float64 on all (ray, triangle) pairs that survive a conservative
+    bounding-sphere pre-test. The pre-test is only a speed-up (it evaluates every pair, in
+    chunks of rays, with two small matrix products): a triangle hit by a ray lies within its
+    bounding sphere, and the sphere radius is padded far beyond the rounding error, so no hit
+    is lost. Ties in t go to the lowest triangle index.
+
+    Args:
+        tris: (F, 3, 3) triangle corners.
+        origins, dirs: (R, 3) ray origins and directions (directions need not be unit).
+        tmin: hits need t > tmin (t in units of |dir|).
+
+    Returns:
+        t: (R,) float64 hit distance, inf for a miss; tri: (R,) int64 triangle index, -1 for a miss.
+    """
+    tris = np.asarray(tris, dtype=np.float64)
+    o, d = _check_rays(origins, dirs)
+    n_rays, n_tris = len(o), len(tris)
+    best_t = np.full(n_rays, np.inf)
+    best_i = np.full(n_rays, -1, np.int64)
+    if n_rays == 0 or n_tris == 0:
+        return best_t, best_i
+
+    center = tris.mean(axis=1)
+    radius = np.sqrt(((tris - center[:, None, :]) ** 2).sum(axis=2).max(axis=1))
+    # Distance^2 from line (o, u), |u| = 1, to center c:  |c - o|^2 - ((c - o) . u)^2, expanded
+    # into products of per-ray and per-triangle vectors so a chunk is two matrix products:
+    #   A = u . c - u . o                    = [u, -u.o]            @ [c, 1]
+    #   B = |c|^2 - 2 c.o + |o|^2 - r'^2     = [-2o, |o|^2 - tol, 1] @ [c, 1, |c|^2 - r'^2]
+    # and the pair survives when B <= A^2. tol covers the cancellation error of the expansion
+    # (~ eps (|c|^2 + |o|^2)) with a factor of ~100 to spare.
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    c2 = (center**2).sum(axis=1)
+    r_pad = radius * (1.0 + 1e-9)
+    tri_a = np.concatenate([center, np.ones((n_tris, 1))], axis=1).T.copy()
+    tri_b = np.concatenate([center, np.ones((n_tris, 1)), (c2 - r_pad**2)[:, None]], axis=1).T.copy()
+    o2 = (o**2).sum(axis=1)
+    tol = 1e-12 * (c2.max() + o2)
+    ray_a = np.concatenate([unit, -_dot(unit, o)[:, None]], axis=1)
+    ray_b = np.concatenate([-2.0 * o, (o2 - tol)[:, None], np.ones((n_rays, 1))], axis=1)
+
+    chunk = max(1, 2_000_000 // n_tris)  # ~16 MB float64 per temporary
+    for r0 in range(0, n_rays, chunk):
+        r1 = min(n_rays, r0 + chunk)
+        proj = ray_a[r0:r1] @ tri_a
+        near = ray_b[r0:r1] @ tri_b <= proj * proj
+        ray_idx, tri_idx = np.nonzero(near)
+        if ray_idx.size == 0:
+            continue
+        ray_idx += r0
+        t = _moller_trumbore(tris[tri_idx], o[ray_idx], d[ray_idx], tmin)
+        hit = np.isfinite(t)
+        ray_idx, tri_idx, t = ray_idx[hit], tri_idx[hit], t[hit]
+        # Per ray: smallest t, then smallest triangle index.
+        srt = np.lexsort((tri_idx, t, ray_idx))
+        ray_idx, tri_idx, t = ray_idx[srt], tri_idx[srt], t[srt]
+        first = np.ones(ray_idx.size, bool)
+        first[1:] = ray_idx[1:] != ray_idx[:-1]
+        best_t[ray_idx[first]] = t[first]
+        best_i[ray_idx[first]] = tri_idx[first]
+    return best_t, best_i
+
+
+def bvh_closest_hit(
+    bvh: BVH, tris_reordered: np.ndarray, origins: np.ndarray, dirs: np.ndarray, tmin: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hit by walking the packed node array, like the GLSL traversal (reference).
+
+    Vectorised over rays: every step, each unfinished ray handles one node from its own
+    stack (front-to-back: the near child by the ray's direction sign on the split axis is
+    visited first, the far one pushed). Exact ties in t go to the lowest ORIGINAL triangle
+    index, matching `brute_force_closest_hit` on the original order.
+
+    Args:
+        bvh: the hierarchy.
+        tris_reordered: (F, 3, 3) triangles in BVH order, i.e. `tris[bvh.order]`.
+        origins, dirs: (R, 3) rays; tmin: hits need t > tmin (t in units of |dir|).
+
+    Returns:
+        t: (R,) float64, inf for a miss; tri: (R,) int64 REORDERED triangle index, -1 for a miss
+        (`bvh.order[tri]` is the original index).
+    """
+    tris = np.asarray(tris_reordered, dtype=np.float64)
+    o, d = _check_rays(origins, dirs)
+    if len(tris) != bvh.num_triangles:
+        raise ValueError(f"{len(tris)} triangles given, the BVH has {bvh.num_triangles}")
+    n_rays = len(o)
+    best_t = np.full(n_rays, np.inf)
+    best_i = np.full(n_rays, -1, np.int64)
+
+    lo = bvh.bounds_min.astype(np.float64)
+    hi = bvh.bounds_max.astype(np.float64)
+    is_leaf = bvh.is_leaf
+    a_field = bvh.nodes[:, 3].astype(np.int64)
+    b_field = bvh.nodes[:, 7].astype(np.int64)
+    leaf_count = np.where(is_leaf, b_field & (LEAF_FLAG - 1), 0)
+    order = bvh.order
+    with np.errstate(divide="ignore"):
+        inv_d = 1.0 / d
+
+    stack = np.zeros((n_rays, MAX_STACK), np.int64)
+    sp = np.zeros(n_rays, np.int64)
+    node = np.zeros(n_rays, np.int64)
+    live = np.arange(n_rays)
+    while live.size:
+        n = node[live]
+        ro, rinv = o[live], inv_d[live]
+        with np.errstate(invalid="ignore"):
+            # nan (0 * inf: origin on a slab plane, direction parallel) is ignored by fmin/fmax.
+            t0 = (lo[n] - ro) * rinv
+            t1 = (hi[n] - ro) * rinv
+            t_near = np.fmax.reduce(np.fmin(t0, t1), axis=1)
+            t_far = np.fmin.reduce(np.fmax(t0, t1), axis=1)
+        enter = np.maximum(t_near, tmin) <= np.minimum(t_far, best_t[live]) * _SLAB_PAD
+
+        # Leaves: test their triangles, then pop.
+        at_leaf = enter & is_leaf[n]
+        rays = live[at_leaf]
+        first, cnt = a_field[n[at_leaf]], leaf_count[n[at_leaf]]
+        for j in range(int(cnt.max()) if cnt.size else 0):
+            m = j < cnt
+            r, tri = rays[m], first[m] + j
+            t = _moller_trumbore(tris[tri], o[r], d[r], tmin)
+            cur = best_i[r]
+            better = (t < best_t[r]) | (
+                (t == best_t[r]) & np.isfinite(t) & (order[tri] < np.where(cur >= 0, order[cur], np.inf))
+            )
+            best_t[r[better]] = t[better]
+            best_i[r[better]] = tri[better]
+
+        # Interior nodes: go to the near child, push the far one.
+        inner = enter & ~is_leaf[n]
+        rays, parent = live[inner], n[inner]
+        split_axis = b_field[parent]
+        left_first = d[rays, split_axis] >= 0.0
+        near = np.where(left_first, parent + 1, a_field[parent])
+        far = np.where(left_first, a_field[parent], parent + 1)
+        if rays.size and sp[rays].max() >= MAX_STACK:
+            raise RuntimeError("traversal stack overflow")
+        stack[rays, sp[rays]] = far
+        sp[rays] += 1
+        node[rays] = near
+
+        # Missed boxes and finished leaves: pop, or retire the ray when its stack is empty.
+        done = live[~inner]
+        has_more = sp[done] > 0
+        pop = done[has_more]
+        sp[pop] -= 1
+        node[pop] = stack[pop, sp[pop]]
+        live = np.concatenate([rays, pop])
+    return best_t, best_i

@@ -1,0 +1,38 @@
+"""Pinhole camera basis (GLSL side: glsl/camera.glsl), following scene.json's convention:
+
+    f = normalize(look_at - position); r = normalize(cross(f, up)); u = cross(r, f)
+    x = (2 (i + sx) / W - 1) tan(vfov/2) W/H,  y = (1 - 2 (j + sy) / H) tan(vfov/2)
+    direction = normalize(f + x r + y u)
+
+The host pre-scales r by tan(vfov/2) W/H and u by tan(vfov/2) so the shader does one multiply-add.
+Computed in float64; the camera position becomes the origin of the uploaded geometry.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def basis(position, look_at, up, vfov_deg: float, width: int, height: int):
+    """(forward, right_scaled, up_scaled) float64 vectors."""
+    p = np.asarray(position, np.float64)
+    f = np.asarray(look_at, np.float64) - p
+    f /= np.linalg.norm(f)
+    r = np.cross(f, np.asarray(up, np.float64))
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    t = math.tan(math.radians(vfov_deg) / 2.0)
+    return f, r * (t * width / height), u * t
+
+
+def primary_rays(position, look_at, up, vfov_deg, width, height, jitter=(0.5, 0.5)):
+    """Origins (camera-relative: zeros) and unit directions of every pixel, rows from the top."""
+    f, r, u = basis(position, look_at, up, vfov_deg, width, height)
+    i, j = np.meshgrid(np.arange(width), np.arange(height))
+    x = 2.0 * (i + jitter[0]) / width - 1.0
+    y = 1.0 - 2.0 * (j + jitter[1]) / height
+    d = f + x[..., None] * r + y[..., None] * u
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.zeros_like(d), d

@@ -1,0 +1,98 @@
+"""Writing images without ever leaving a broken file at the user's path.
+
+``.exr``: linear RGB float32 through OpenEXR (ZIP, lossless), with the render's metadata in the
+header. ``.png``: exposure, the sRGB transfer curve, 8 bits, through OpenCV (BGR order).
+Both are written to a temporary file in the destination folder and renamed over the target
+only when complete (rename is atomic within a file system).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+FORMATS = (".exr", ".png")
+
+
+class ImageError(ValueError):
+    pass
+
+
+def check_output_path(path: str | Path) -> Path:
+    """Fail early (before rendering) on an unknown extension or a missing folder."""
+    p = Path(path)
+    if p.suffix.lower() not in FORMATS:
+        raise ImageError(f"{p}: unknown image format {p.suffix or '(none)'!r}; use .exr or .png")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise ImageError(f"{p}: output folder {parent} does not exist")
+    if p.is_dir():
+        raise ImageError(f"{p}: is a folder")
+    return p
+
+
+def linear_to_srgb(x: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1 transfer curve on [0, 1]."""
+    x = np.clip(x, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def to_srgb8(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
+    """Linear radiance -> 8-bit sRGB (exposure in stops), rounded to nearest."""
+    v = linear_to_srgb(np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0) * (2.0 ** exposure))
+    return np.round(v * 255.0).astype(np.uint8)
+
+
+def _atomic(path: Path, write) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent or ".")
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_exr(path: str | Path, rgb: np.ndarray, metadata: dict | None = None) -> None:
+    import OpenEXR
+
+    p = check_output_path(path)
+    pixels = np.ascontiguousarray(rgb, dtype=np.float32)  # OpenEXR rejects float64
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    for k, v in (metadata or {}).items():
+        # Ints > 2^31 and floats needing double precision would be mangled: store them as text.
+        header[k] = v if isinstance(v, str) else str(v)
+    _atomic(p, lambda tmp: OpenEXR.File(dict(header), {"RGB": pixels}).write(tmp))
+
+
+def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        return np.array(f.channels()["RGB"].pixels, np.float32), dict(f.header())
+
+
+def write_png(path: str | Path, rgb: np.ndarray, exposure: float = 0.0) -> None:
+    import cv2
+
+    p = check_output_path(path)
+    bgr = to_srgb8(rgb, exposure)[..., ::-1]
+
+    def write(tmp):
+        if not cv2.imwrite(tmp, np.ascontiguousarray(bgr)):
+            raise ImageError(f"{p}: OpenCV could not write the PNG")
+
+    _atomic(p, write)
+
+
+def write_image(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
+                exposure: float = 0.0) -> None:
+    if Path(path).suffix.lower() == ".exr":
+        write_exr(path, rgb, metadata)
+    else:
+        write_png(path, rgb, exposure)

@@ -1,0 +1,178 @@
+"""Passes on the GPU, averaged on the host (GLSL side: glsl/pathtrace.frag).
+
+Each pass renders one sample per pixel into an RGBA32F target with additive blending; every
+``chunk`` passes the float32 target is read back, added into a float64 sum and cleared, so the
+average never loses precision, however many passes (the thesis averaged 8-bit images). Each pass
+gets fresh random numbers (mcpt/sampler.py) in one of two buffer textures used in turn, so
+writing the next pass's numbers never waits for the draw that reads the previous ones.
+
+Large images are split into tiles (scissored draws): this bounds the random-number buffer by
+GL_MAX_TEXTURE_BUFFER_SIZE and keeps each draw short on a real GPU, whose driver watchdog
+would kill a draw that runs for seconds.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from . import shader
+from .camera import basis
+from .context import GLContext
+from .features import Features
+from .loader import World
+from .sampler import RandomNumbers
+from .tbo import GL_R32UI, create_tbo
+
+# Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
+MAX_RANDOM_PER_TILE = 1 << 26
+
+
+class RenderError(RuntimeError):
+    pass
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray            # (H, W, 3) float32 mean radiance, row 0 at the top
+    spp: int
+    seed: int
+    bounces: int
+    dropped_samples: int         # non-finite samples detected and left out of the mean
+    render_seconds: float        # passes only (set-up excluded)
+    random_seconds: float        # generating + uploading random numbers (inside render_seconds)
+    setup: dict = field(default_factory=dict)  # compile seconds, upload bytes per buffer, tiles
+
+    @property
+    def paths_per_second(self) -> float:
+        h, w, _ = self.image.shape
+        return w * h * self.spp / max(self.render_seconds, 1e-12)
+
+
+def plan_tiles(width: int, height: int, dims: int, limit_texels: int,
+               max_per_tile: int = MAX_RANDOM_PER_TILE) -> list[tuple[int, int, int, int]]:
+    """Split the image into full-width bands so each band's random numbers fit the limits."""
+    budget = min(limit_texels, max_per_tile)
+    rows = max(1, min(height, budget // max(1, width * dims)))
+    if width * dims > budget:
+        raise RenderError(f"one image row needs {width * dims} random numbers, more than the "
+                          f"{budget} one buffer may hold; lower the resolution or the bounces")
+    return [(0, y, width, min(rows, height - y)) for y in range(0, height, rows)]
+
+
+class Renderer:
+    """A compiled program and the uploaded scene, ready to render passes."""
+
+    def __init__(self, gl: GLContext, world: World, features: Features, *,
+                 max_random_per_tile: int = MAX_RANDOM_PER_TILE):
+        self.gl, self.world, self.features = gl, world, features
+        ctx = gl.ctx
+        cam = world.scene.camera
+        self.width, self.height = cam.width, cam.height
+        t0 = time.perf_counter()
+        self.program = shader.program(ctx, "fullscreen.vert", "pathtrace.frag", features.preamble(),
+                                      features.key)
+        t1 = time.perf_counter()
+        self.tbos = {}
+        for name, arr in world.buffers(features).items():
+            per = {"tris": 3, "nodes": 2, "materials": 2, "lights": 1}[name]
+            item = {"tris": "triangles", "nodes": "BVH nodes", "materials": "materials",
+                    "lights": "emissive triangles"}[name]
+            self.tbos[name] = create_tbo(gl, name, arr, per_item=per, item=item)
+        limits = gl.limits()
+        self.tiles = plan_tiles(self.width, self.height, features.random_dims,
+                                limits["max_texture_buffer_size"], max_random_per_tile)
+        tile_pixels = max(w * h for _, _, w, h in self.tiles)
+        zeros = np.zeros(tile_pixels * features.random_dims, np.uint32)
+        self.random = [create_tbo(gl, "random", zeros, internal_format=GL_R32UI) for _ in range(2)]
+        self.target = ctx.texture((self.width, self.height), 4, dtype="f4")
+        self.fbo = ctx.framebuffer(color_attachments=[self.target])
+        self.vao = ctx.vertex_array(self.program, [])
+        f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, self.width, self.height)
+        self._uniform("u_cam_forward", tuple(f))
+        self._uniform("u_cam_right", tuple(r))
+        self._uniform("u_cam_up", tuple(u))
+        self._uniform("u_resolution", (self.width, self.height))
+        self._uniform("u_tri_count", world.n_triangles)
+        self._uniform("u_light_count", world.lights.count)
+        t2 = time.perf_counter()
+        self.setup = {
+            "compile_seconds": t1 - t0,
+            "upload_seconds": t2 - t1,
+            "upload_bytes": {k: v.nbytes for k, v in self.tbos.items()},
+            "random_bytes_per_pass": int(self.width * self.height * features.random_dims * 4),
+            "tiles": len(self.tiles),
+        }
+
+    def _uniform(self, name, value):
+        if name in self.program:  # the specialised program may have compiled a uniform away
+            self.program[name].value = value
+
+    def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64,
+               clamp: float | None = None) -> RenderResult:
+        """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``."""
+        if spp < 1:
+            raise RenderError(f"spp must be >= 1, got {spp}")
+        ctx = self.gl.ctx
+        if clamp is not None:
+            self._uniform("u_clamp", float(clamp))
+        dims = self.features.random_dims
+        streams = [RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
+        total = np.zeros((self.height, self.width, 4), np.float64)
+        self.fbo.use()
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        for t in self.tbos.values():
+            t.bind()
+        rand_seconds = 0.0
+        draws = 0
+        t0 = time.perf_counter()
+        for p in range(spp):
+            for ti, (x0, y0, w, h) in enumerate(self.tiles):
+                tr = time.perf_counter()
+                buf = self.random[draws % 2]
+                buf.write(_padded(streams[ti].for_pass(p), buf.texels))
+                buf.bind()
+                rand_seconds += time.perf_counter() - tr
+                self._uniform("u_tile", (x0, y0, w, h))
+                # GL rows count from the bottom; tiles are given from the top.
+                ctx.scissor = (x0, self.height - y0 - h, w, h)
+                self.vao.render(moderngl.TRIANGLES, vertices=3)
+                draws += 1
+            if (p + 1) % chunk == 0 or p + 1 == spp:
+                total += self._read_and_clear()
+                if progress is not None:
+                    progress(p + 1, spp)
+        ctx.scissor = None
+        ctx.disable(moderngl.BLEND)
+        seconds = time.perf_counter() - t0
+        dropped = int(round(total[..., 3].sum()))
+        valid = spp - total[..., 3]
+        image = np.where(valid[..., None] > 0, total[..., :3] / np.maximum(valid, 1)[..., None], 0.0)
+        return RenderResult(image.astype(np.float32), spp, seed, self.features.bounces, dropped,
+                            seconds, rand_seconds, dict(self.setup))
+
+    def _read_and_clear(self) -> np.ndarray:
+        raw = np.frombuffer(self.fbo.read(components=4, dtype="f4"), np.float32)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        return np.flipud(raw.reshape(self.height, self.width, 4)).astype(np.float64)
+
+    def release(self) -> None:
+        for t in list(self.tbos.values()) + self.random:
+            t.release()
+        self.vao.release()
+        self.fbo.release()
+        self.target.release()
+
+
+def _padded(a: np.ndarray, n: int) -> np.ndarray:
+    """A smaller last tile's numbers in the shared-size buffer (the tail is never read)."""
+    if a.size == n:
+        return a
+    out = np.zeros(n, np.uint32)
+    out[: a.size] = a
+    return out

@@ -1,0 +1,47 @@
+"""Pre-generated random numbers, fresh for every pass (GLSL side: glsl/sampler.glsl).
+
+Layout of one pass's numbers (uint32, one ``R32UI`` buffer texture, ``D = features.random_dims``)::
+
+    index = pixel * D + dim,   pixel = row_in_tile * tile_width + column_in_tile (rows from the top)
+    dim 0, 1                 camera jitter inside the pixel (box filter)
+    dim 2 + 6 (k - 1) + ...  bounce k = 1..bounces:
+        + 0 light choice,  + 1, + 2 point on the light,  + 3, + 4 BSDF direction,  + 5 roulette
+
+so a pixel reads only its own ``D`` consecutive numbers, each dimension of its path gets its own
+number, and no two pixels or bounces share one. Pass ``p`` of tile ``t`` draws from its own PCG64
+stream seeded by ``SeedSequence([seed, t, p])``: passes never reuse numbers (the thesis's code did),
+the same seed gives the same image, and any pass can be regenerated on its own (no state to carry).
+
+Cost (measured, bench/sampler): about 6 ms for 256 x 256 x 50 numbers on this 2-core machine; the
+render command reports generation + upload seconds beside render seconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class RandomNumbers:
+    """Per-pass random numbers for a tile of ``n_pixels`` pixels and ``dims`` dimensions."""
+
+    def __init__(self, seed: int, n_pixels: int, dims: int, tile: int = 0):
+        self.seed, self.n_pixels, self.dims, self.tile = int(seed), int(n_pixels), int(dims), int(tile)
+
+    @property
+    def count(self) -> int:
+        return self.n_pixels * self.dims
+
+    @property
+    def nbytes(self) -> int:
+        return 4 * self.count
+
+    def for_pass(self, pass_index: int) -> np.ndarray:
+        """The ``n_pixels * dims`` uint32 numbers of pass ``pass_index`` (uniform over all 2^32)."""
+        ss = np.random.SeedSequence([self.seed, self.tile, int(pass_index)])
+        rng = np.random.Generator(np.random.PCG64(ss))
+        return rng.integers(0, 2**32, self.count, dtype=np.uint32)
+
+
+def to_unit(u: np.ndarray) -> np.ndarray:
+    """The shader's uint -> [0, 1) mapping (24 high bits), for tests of the GLSL side."""
+    return (u >> 8).astype(np.float64) / 16777216.0
