@@ -19,6 +19,9 @@ uniform float u_clamp;   // biased: largest allowed sample component (off unless
 #endif
 
 layout(location = 0) out vec4 o_color;
+#if MCPT_VARIANCE
+layout(location = 1) out vec4 o_square;  // per-pixel sum of squares -> variance of the mean
+#endif
 
 // Power heuristic with beta = 2 (Veach 1997, sec. 9.2.4).
 float power_heuristic(float a, float b) {
@@ -118,4 +121,7 @@ void main() {
     if (mx > u_clamp) L *= u_clamp / mx;
 #endif
     o_color = non_finite(L) ? vec4(0.0, 0.0, 0.0, 1.0) : vec4(L, 0.0);
+#if MCPT_VARIANCE
+    o_square = vec4(o_color.rgb * o_color.rgb, 0.0);
+#endif
 }

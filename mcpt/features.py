@@ -20,7 +20,7 @@ DIMS_CAMERA = 2
 DIMS_PER_BOUNCE = 6
 
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
-BVH_MIN_TRIANGLES = 8
+BVH_MIN_TRIANGLES = 64
 
 
 @dataclass(frozen=True)
@@ -33,6 +33,7 @@ class Features:
     bvh: bool = True                # False: brute-force loop over all triangles
     diffuse: bool = True            # Lambertian material present
     clamp: bool = False             # biased firefly clamp, off unless asked for
+    variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
 
     @property
     def nee(self) -> bool:
@@ -65,6 +66,7 @@ class Features:
             "MCPT_BVH": b(self.bvh),
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
             "MCPT_CLAMP": b(self.clamp),
+            "MCPT_VARIANCE": b(self.variance),
         }
 
     def preamble(self) -> str:
@@ -78,7 +80,7 @@ class Features:
 
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
            mis: bool = True, russian_roulette: bool = True, bvh: bool | None = None,
-           clamp: bool = False) -> Features:
+           clamp: bool = False, variance: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made."""
     return Features(
         bounces=bounces,
@@ -89,4 +91,5 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         bvh=(n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh,
         diffuse="diffuse" in material_types,
         clamp=clamp,
+        variance=variance,
     )

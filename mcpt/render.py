@@ -25,7 +25,7 @@ from .context import GLContext
 from .features import Features
 from .loader import World
 from .sampler import RandomNumbers
-from .tbo import GL_R32UI, create_tbo
+from .tbo import GL_R32F, create_tbo
 
 # Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
 MAX_RANDOM_PER_TILE = 1 << 26
@@ -38,12 +38,13 @@ class RenderError(RuntimeError):
 @dataclass
 class RenderResult:
     image: np.ndarray            # (H, W, 3) float32 mean radiance, row 0 at the top
+    variance: np.ndarray | None  # (H, W, 3) float32 variance OF THE MEAN (sample var / n), or None
     spp: int
     seed: int
     bounces: int
     dropped_samples: int         # non-finite samples detected and left out of the mean
     render_seconds: float        # passes only (set-up excluded)
-    random_seconds: float        # generating + uploading random numbers (inside render_seconds)
+    random_seconds: float        # generating random numbers on the host (inside render_seconds)
     setup: dict = field(default_factory=dict)  # compile seconds, upload bytes per buffer, tiles
 
     @property
@@ -86,10 +87,13 @@ class Renderer:
         self.tiles = plan_tiles(self.width, self.height, features.random_dims,
                                 limits["max_texture_buffer_size"], max_random_per_tile)
         tile_pixels = max(w * h for _, _, w, h in self.tiles)
-        zeros = np.zeros(tile_pixels * features.random_dims, np.uint32)
-        self.random = [create_tbo(gl, "random", zeros, internal_format=GL_R32UI) for _ in range(2)]
-        self.target = ctx.texture((self.width, self.height), 4, dtype="f4")
-        self.fbo = ctx.framebuffer(color_attachments=[self.target])
+        # Host staging array filled in place each pass, and two buffer textures used in turn.
+        self._numbers = np.zeros(tile_pixels * features.random_dims, np.float32)
+        self.random = [create_tbo(gl, "random", self._numbers, internal_format=GL_R32F)
+                       for _ in range(2)]
+        self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
+                        for _ in range(2 if features.variance else 1)]
+        self.fbo = ctx.framebuffer(color_attachments=self.targets)
         self.vao = ctx.vertex_array(self.program, [])
         f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, self.width, self.height)
         self._uniform("u_cam_forward", tuple(f))
@@ -121,7 +125,7 @@ class Renderer:
             self._uniform("u_clamp", float(clamp))
         dims = self.features.random_dims
         streams = [RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
-        total = np.zeros((self.height, self.width, 4), np.float64)
+        total = np.zeros((len(self.targets), self.height, self.width, 4), np.float64)
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
         ctx.enable(moderngl.BLEND)
@@ -134,10 +138,11 @@ class Renderer:
         for p in range(spp):
             for ti, (x0, y0, w, h) in enumerate(self.tiles):
                 tr = time.perf_counter()
-                buf = self.random[draws % 2]
-                buf.write(_padded(streams[ti].for_pass(p), buf.texels))
-                buf.bind()
+                streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
                 rand_seconds += time.perf_counter() - tr
+                buf = self.random[draws % 2]
+                buf.write(self._numbers)
+                buf.bind()
                 self._uniform("u_tile", (x0, y0, w, h))
                 # GL rows count from the bottom; tiles are given from the top.
                 ctx.scissor = (x0, self.height - y0 - h, w, h)
@@ -150,29 +155,29 @@ class Renderer:
         ctx.scissor = None
         ctx.disable(moderngl.BLEND)
         seconds = time.perf_counter() - t0
-        dropped = int(round(total[..., 3].sum()))
-        valid = spp - total[..., 3]
-        image = np.where(valid[..., None] > 0, total[..., :3] / np.maximum(valid, 1)[..., None], 0.0)
-        return RenderResult(image.astype(np.float32), spp, seed, self.features.bounces, dropped,
-                            seconds, rand_seconds, dict(self.setup))
+        # Non-finite samples were written as 0 with alpha 1: the mean is over the valid ones.
+        dropped = int(round(total[0, ..., 3].sum()))
+        n = np.maximum(spp - total[0, ..., 3], 1.0)[..., None]
+        image = total[0, ..., :3] / n
+        variance = None
+        if self.features.variance:
+            var = np.maximum(total[1, ..., :3] / n - image**2, 0.0) * n / np.maximum(n - 1.0, 1.0)
+            variance = (var / n).astype(np.float32)
+        return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
+                            dropped, seconds, rand_seconds, dict(self.setup))
 
     def _read_and_clear(self) -> np.ndarray:
-        raw = np.frombuffer(self.fbo.read(components=4, dtype="f4"), np.float32)
+        out = []
+        for i in range(len(self.targets)):
+            raw = np.frombuffer(self.fbo.read(components=4, dtype="f4", attachment=i), np.float32)
+            out.append(np.flipud(raw.reshape(self.height, self.width, 4)))
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
-        return np.flipud(raw.reshape(self.height, self.width, 4)).astype(np.float64)
+        return np.stack(out).astype(np.float64)
 
     def release(self) -> None:
         for t in list(self.tbos.values()) + self.random:
             t.release()
         self.vao.release()
         self.fbo.release()
-        self.target.release()
-
-
-def _padded(a: np.ndarray, n: int) -> np.ndarray:
-    """A smaller last tile's numbers in the shared-size buffer (the tail is never read)."""
-    if a.size == n:
-        return a
-    out = np.zeros(n, np.uint32)
-    out[: a.size] = a
-    return out
+        for t in self.targets:
+            t.release()

@@ -1,6 +1,7 @@
 """Pre-generated random numbers, fresh for every pass (GLSL side: glsl/sampler.glsl).
 
-Layout of one pass's numbers (uint32, one ``R32UI`` buffer texture, ``D = features.random_dims``)::
+Layout of one pass's numbers (float32 in [0, 1), 24 random bits each, one ``R32F`` buffer
+texture, ``D = features.random_dims``)::
 
     index = pixel * D + dim,   pixel = row_in_tile * tile_width + column_in_tile (rows from the top)
     dim 0, 1                 camera jitter inside the pixel (box filter)
@@ -12,8 +13,9 @@ number, and no two pixels or bounces share one. Pass ``p`` of tile ``t`` draws f
 stream seeded by ``SeedSequence([seed, t, p])``: passes never reuse numbers (the thesis's code did),
 the same seed gives the same image, and any pass can be regenerated on its own (no state to carry).
 
-Cost (measured, bench/sampler): about 6 ms for 256 x 256 x 50 numbers on this 2-core machine; the
-render command reports generation + upload seconds beside render seconds.
+Cost: about 8 ms for 256 x 256 x 50 numbers on this 2-core machine, written into one
+preallocated array (fresh 13 MB allocations each pass cost 5x more in page faults); the render
+result reports generation seconds beside render seconds (bench/run.py prints the ratio).
 """
 
 from __future__ import annotations
@@ -35,13 +37,13 @@ class RandomNumbers:
     def nbytes(self) -> int:
         return 4 * self.count
 
-    def for_pass(self, pass_index: int) -> np.ndarray:
-        """The ``n_pixels * dims`` uint32 numbers of pass ``pass_index`` (uniform over all 2^32)."""
+    def fill(self, pass_index: int, out: np.ndarray) -> np.ndarray:
+        """Write pass ``pass_index``'s numbers into ``out[:count]`` (float32, uniform in [0, 1))."""
         ss = np.random.SeedSequence([self.seed, self.tile, int(pass_index)])
         rng = np.random.Generator(np.random.PCG64(ss))
-        return rng.integers(0, 2**32, self.count, dtype=np.uint32)
+        rng.random(out=out[: self.count], dtype=np.float32)
+        return out
 
-
-def to_unit(u: np.ndarray) -> np.ndarray:
-    """The shader's uint -> [0, 1) mapping (24 high bits), for tests of the GLSL side."""
-    return (u >> 8).astype(np.float64) / 16777216.0
+    def for_pass(self, pass_index: int) -> np.ndarray:
+        """A new array with pass ``pass_index``'s numbers (tests and tools; render() uses fill)."""
+        return self.fill(pass_index, np.empty(self.count, np.float32))

@@ -22,6 +22,7 @@ from .context import GL_TEXTURE0, GL_TEXTURE_BUFFER, GLContext
 GL_RGBA32F = 0x8814
 GL_RGBA32UI = 0x8D70
 GL_R32UI = 0x8236
+GL_R32F = 0x822E
 
 # Texture unit of every buffer the shaders read; the GLSL side uses the same numbers
 # (glsl/*.glsl `layout(binding = N)`), checked by tests/test_shader.py.
@@ -75,6 +76,8 @@ def _as_texels(array: np.ndarray, internal_format: int) -> np.ndarray:
     a = np.ascontiguousarray(array)
     if internal_format == GL_R32UI:
         want = np.uint32
+    elif internal_format == GL_R32F:
+        want = np.float32
     elif internal_format == GL_RGBA32F:
         want = np.float32
     else:
@@ -83,7 +86,7 @@ def _as_texels(array: np.ndarray, internal_format: int) -> np.ndarray:
         a = a.view(np.uint32)  # float bits travel unchanged
     if a.dtype != want:
         raise TBOError(f"TBO data must be float32 or uint32, got {a.dtype}")
-    if internal_format != GL_R32UI and (a.ndim != 2 or a.shape[1] != 4):
+    if internal_format not in (GL_R32UI, GL_R32F) and (a.ndim != 2 or a.shape[1] != 4):
         raise TBOError(f"TBO data must have shape (N, 4), got {a.shape}")
     return a
 
@@ -98,17 +101,16 @@ def check_size(gl: GLContext, name: str, texels: int, per_item: int = 1, item: s
 
 def create_tbo(gl: GLContext, name: str, array: np.ndarray, *, unit: int | None = None,
                internal_format: int = GL_RGBA32UI, per_item: int = 1, item: str = "items") -> TBO:
-    """Upload ``array`` ((N,4) uint32/float32 bits, or (N,) uint32 for R32UI) as a buffer texture.
+    """Upload ``array`` ((N,4) uint32/float32 bits; (N,) for R32UI/R32F) as a buffer texture.
 
     ``per_item`` texels make one ``item`` (e.g. 3 texels per triangle) so a size error can say how
     many items fit.
     """
     data = _as_texels(array, internal_format)
-    texels = data.shape[0] if data.ndim > 1 or internal_format == GL_R32UI else data.shape[0]
-    texels = max(texels, 1)
+    texels = max(data.shape[0], 1)
     check_size(gl, name, texels, per_item, item)
     if data.size == 0:  # GL needs a non-empty store; shaders never read an empty table
-        data = np.zeros((1, 4) if internal_format != GL_R32UI else (1,), data.dtype)
+        data = np.zeros((1,) if data.ndim == 1 else (1, 4), data.dtype)
     buf = gl.ctx.buffer(data.tobytes())
     tex = ctypes.c_uint()
     gl.fn("glGenTextures", None, ctypes.c_int, ctypes.POINTER(ctypes.c_uint))(1, ctypes.byref(tex))
