@@ -1,7 +1,7 @@
-// Closest-hit and any-hit traversal (host side: mcpt/bvh.py, which defines the node layout).
-// Node = 2 RGBA32UI texels: (bmin.xyz, a), (bmax.xyz, b). Leaf: b has the top bit set,
-// a = first triangle, b & 0x7fffffff = count. Interior: left child = node + 1, a = right child,
-// b = split axis (children visited near-first along it).
+// Closest-hit and any-hit traversal (host side: mcpt/bvh.py BVH.gpu_nodes defines the layout).
+// Interior node = 4 RGBA32UI texels, both children's boxes:
+//   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
+// child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
 #include "geometry.glsl"
 
 layout(binding = 1) uniform usamplerBuffer u_nodes;
@@ -10,13 +10,14 @@ layout(binding = 1) uniform usamplerBuffer u_nodes;
 // Slab test. Zero direction components are replaced by a tiny value upstream (safe_inv) so no
 // 0 * inf = NaN appears; the far distance is widened by 2 gamma(3) (Ize 2013, "Robust BVH Ray
 // Traversal") so rounding never misses a box the ray really enters.
-bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax) {
+bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax, out float tnear) {
     vec3 t0 = (bmin - o) * inv;
     vec3 t1 = (bmax - o) * inv;
     vec3 tsm = min(t0, t1);
     vec3 tbg = max(t0, t1);
     float tn = max(max(tsm.x, tsm.y), max(tsm.z, 0.0));
     float tf = min(min(tbg.x, tbg.y), min(tbg.z, tmax)) * 1.0000004;
+    tnear = tn;
     return tn <= tf;
 }
 
@@ -38,29 +39,40 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
     int sp = 0;
     int node = 0;
     while (true) {
-        uvec4 a = texelFetch(u_nodes, 2 * node);
-        uvec4 b = texelFetch(u_nodes, 2 * node + 1);
-        if (box_hit(uintBitsToFloat(a.xyz), uintBitsToFloat(b.xyz), r.o, inv, h.t)) {
-            if ((b.w & 0x80000000u) != 0u) {
-                int first = int(a.w);
-                int end = first + int(b.w & 0x7fffffffu);
-                for (int i = first; i < end; ++i) {
-                    if (intersect_tri(r, p, i, h.t, t, bary)) {
-                        h.t = t; h.tri = i; h.bary = bary; found = true;
-                        if (any_hit) return true;
-                    }
+        uvec4 l0 = texelFetch(u_nodes, 4 * node);
+        uvec4 l1 = texelFetch(u_nodes, 4 * node + 1);
+        uvec4 r0 = texelFetch(u_nodes, 4 * node + 2);
+        uvec4 r1 = texelFetch(u_nodes, 4 * node + 3);
+        float tl, tr;
+        bool hl = box_hit(uintBitsToFloat(l0.xyz), uintBitsToFloat(l1.xyz), r.o, inv, h.t, tl);
+        bool hr = box_hit(uintBitsToFloat(r0.xyz), uintBitsToFloat(r1.xyz), r.o, inv, h.t, tr);
+        // Leaf children are intersected right here; only interior children are descended into.
+        for (int side = 0; side < 2; ++side) {
+            bool hit_leaf = side == 0 ? (hl && l1.w != 0u) : (hr && r1.w != 0u);
+            if (!hit_leaf) continue;
+            int first = int(side == 0 ? l0.w : r0.w);
+            int end = first + int((side == 0 ? l1.w : r1.w) & 0x7fffffffu);
+            for (int i = first; i < end; ++i) {
+                if (intersect_tri(r, p, i, h.t, t, bary)) {
+                    h.t = t; h.tri = i; h.bary = bary; found = true;
+                    if (any_hit) return true;
                 }
-            } else {
-                int left = node + 1;
-                int right = int(a.w);
-                bool neg = r.d[int(b.w)] < 0.0;
-                stack[sp++] = neg ? left : right;
-                node = neg ? right : left;
-                continue;
             }
         }
-        if (sp == 0) break;
-        node = stack[--sp];
+        hl = hl && l1.w == 0u;
+        hr = hr && r1.w == 0u;
+        if (hl && hr) {
+            bool left_first = tl <= tr;
+            stack[sp++] = int(left_first ? r0.w : l0.w);
+            node = int(left_first ? l0.w : r0.w);
+        } else if (hl) {
+            node = int(l0.w);
+        } else if (hr) {
+            node = int(r0.w);
+        } else {
+            if (sp == 0) break;
+            node = stack[--sp];
+        }
     }
 #else
     for (int i = 0; i < u_tri_count; ++i) {

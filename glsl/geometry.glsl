@@ -13,17 +13,28 @@ struct Hit {
     vec2 bary;    // barycentrics of v1 and v2
 };
 
-// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013, JCGT 2(1)).
-struct RayPre { int kx; int ky; int kz; vec3 S; };
+// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013, JCGT 2(1)): the
+// permutation (kx, ky, kz) that makes the ray's largest direction component z, and the shear
+// that maps the ray onto +z. Both are linear, so they fold into one matrix M:
+//   M v = (v[kx] - Sx v[kz], v[ky] - Sy v[kz], Sz v[kz]).
+// A matrix product vectorises well on llvmpipe, where indexing a vec3 with a variable does not,
+// and it is still a function of the vertex alone, so a vertex shared by two triangles maps to
+// the same point in both: that is all watertightness needs.
+struct RayPre { mat3 M; };
 
 RayPre ray_pre(vec3 d) {
     vec3 ad = abs(d);
+    int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    if (d[kz] < 0.0) { int t = kx; kx = ky; ky = t; }  // keep the winding
+    float sz = 1.0 / d[kz];
+    float sx = d[kx] * sz, sy = d[ky] * sz;
+    vec3 ex = vec3(0.0), ey = vec3(0.0), ez = vec3(0.0);
+    ex[kx] = 1.0; ey[ky] = 1.0; ez[kz] = 1.0;
     RayPre p;
-    p.kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
-    p.kx = p.kz == 2 ? 0 : p.kz + 1;
-    p.ky = p.kx == 2 ? 0 : p.kx + 1;
-    if (d[p.kz] < 0.0) { int t = p.kx; p.kx = p.ky; p.ky = t; }  // keep the winding
-    p.S = vec3(d[p.kx] / d[p.kz], d[p.ky] / d[p.kz], 1.0 / d[p.kz]);
+    // GLSL matrices are column-major: M = transpose(rows).
+    p.M = transpose(mat3(ex - sx * ez, ey - sy * ez, sz * ez));
     return p;
 }
 
@@ -31,22 +42,16 @@ RayPre ray_pre(vec3 d) {
 // triangles sharing it. `precise` stops fast-math from contracting the 2x2 determinants into
 // FMAs, which would break the exact antisymmetry of an edge shared by two triangles.
 bool intersect_tri(Ray r, RayPre p, int tri, float tmax, out float t, out vec2 bary) {
-    vec3 A = tri_vertex(tri, 0) - r.o;
-    vec3 B = tri_vertex(tri, 1) - r.o;
-    vec3 C = tri_vertex(tri, 2) - r.o;
-    precise float Ax = A[p.kx] - p.S.x * A[p.kz];
-    precise float Ay = A[p.ky] - p.S.y * A[p.kz];
-    precise float Bx = B[p.kx] - p.S.x * B[p.kz];
-    precise float By = B[p.ky] - p.S.y * B[p.kz];
-    precise float Cx = C[p.kx] - p.S.x * C[p.kz];
-    precise float Cy = C[p.ky] - p.S.y * C[p.kz];
-    precise float U = Cx * By - Cy * Bx;
-    precise float V = Ax * Cy - Ay * Cx;
-    precise float W = Bx * Ay - By * Ax;
+    precise vec3 A = p.M * (tri_vertex(tri, 0) - r.o);
+    precise vec3 B = p.M * (tri_vertex(tri, 1) - r.o);
+    precise vec3 C = p.M * (tri_vertex(tri, 2) - r.o);
+    precise float U = C.x * B.y - C.y * B.x;
+    precise float V = A.x * C.y - A.y * C.x;
+    precise float W = B.x * A.y - B.y * A.x;
     if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) return false;
     float det = U + V + W;
     if (det == 0.0) return false;
-    float T = U * (p.S.z * A[p.kz]) + V * (p.S.z * B[p.kz]) + W * (p.S.z * C[p.kz]);
+    float T = U * A.z + V * B.z + W * C.z;
     float inv = 1.0 / det;
     t = T * inv;
     if (!(t > 0.0 && t < tmax)) return false;  // also rejects NaN

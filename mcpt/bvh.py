@@ -109,6 +109,38 @@ class BVH:
         """(M,) int64 triangle count of each leaf, 0 for interior nodes."""
         return np.where(self.is_leaf, self.nodes[:, 7] & ~np.uint32(LEAF_FLAG), 0).astype(np.int64)
 
+    def gpu_nodes(self) -> np.ndarray:
+        """The layout glsl/bvh.glsl traverses: ``(I * 4, 4)`` uint32, 4 texels per INTERIOR node.
+
+        Each interior node carries both children's boxes, so the shader tests the two boxes it
+        may enter from the parent's four texels, visits the nearer child first and never fetches
+        a node whose box the ray misses (leaves are not stored as nodes at all)::
+
+            texel 0 = (left.bmin bits,  left.a)    texel 1 = (left.bmax bits,  left.b)
+            texel 2 = (right.bmin bits, right.a)   texel 3 = (right.bmax bits, right.b)
+
+        A child with ``b == 0`` is interior and ``a`` is its index here; otherwise ``b`` is
+        ``count | LEAF_FLAG`` and ``a`` the first triangle. A tree that is a single leaf becomes
+        one node whose left child is that leaf and whose right child is an empty leaf.
+        """
+        nodes, leaf = self.nodes, self.is_leaf
+        interior = np.flatnonzero(~leaf)
+        if interior.size == 0:
+            root = nodes[0]
+            empty = root.copy()
+            empty[3], empty[7] = 0, LEAF_FLAG
+            return np.stack([root[:4], root[4:], empty[:4], empty[4:]]).astype(np.uint32)
+        new_index = np.zeros(len(nodes), np.uint32)
+        new_index[interior] = np.arange(interior.size, dtype=np.uint32)
+        out = np.empty((interior.size, 4, 4), np.uint32)
+        for slot, child in ((0, interior + 1), (2, nodes[interior, 3].astype(np.int64))):
+            is_leaf = leaf[child]
+            out[:, slot, :3] = nodes[child, 0:3]
+            out[:, slot + 1, :3] = nodes[child, 4:7]
+            out[:, slot, 3] = np.where(is_leaf, nodes[child, 3], new_index[child])
+            out[:, slot + 1, 3] = np.where(is_leaf, nodes[child, 7], 0)
+        return out.reshape(-1, 4)
+
     def stats(self) -> dict:
         """Summary numbers for logs, `mcpt info` and benchmarks."""
         counts = self.leaf_count[self.is_leaf]

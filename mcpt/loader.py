@@ -58,7 +58,7 @@ class World:
                "materials": self.materials.pack(
                    material_light_pdf_area(self.materials.emission, self.lights.total_power))}
         if features.bvh:
-            out["nodes"] = self.bvh.nodes.reshape(-1, 4)
+            out["nodes"] = self.bvh.gpu_nodes()
         if features.nee:
             out["lights"] = self.lights.pack()
         return out
