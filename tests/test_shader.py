@@ -1,0 +1,55 @@
+"""Shader assembly: includes, #line mapping of compiler errors, features <-> defines (issues #2, #4)."""
+
+import re
+
+import pytest
+
+from mcpt import shader
+from mcpt.features import Features
+from mcpt.shader import ShaderError, Source, glsl_dir
+
+
+def test_every_feature_define_used_in_glsl_is_declared():
+    declared = set(Features(bounces=3).defines())
+    used = set()
+    for path in glsl_dir().iterdir():
+        used |= set(re.findall(r"\bMCPT_[A-Z0-9_]+\b", path.read_text()))
+    assert used, "no defines found: the scan is broken"
+    assert used <= declared, f"used in glsl/ but not emitted by mcpt/features.py: {used - declared}"
+
+
+def test_every_define_is_emitted_as_a_number():
+    on, off = Features(bounces=2).defines(), Features(bounces=2, mis=False, bvh=False).defines()
+    assert on.keys() == off.keys()  # a feature switched off is emitted as 0, never left out
+    for value in on.values():
+        assert isinstance(value, int) and not isinstance(value, bool)
+    assert (on["MCPT_MIS"], off["MCPT_MIS"]) == (1, 0)
+    assert (on["MCPT_BVH"], off["MCPT_BVH"]) == (1, 0)
+
+
+def test_version_comes_first_and_each_file_is_included_once():
+    src = Source("pathtrace.frag", Features(bounces=2).preamble())
+    assert src.text.startswith("#version ")
+    assert src.files.count("geometry.glsl") == 1  # included by bvh.glsl only once
+    assert "#include" not in "\n".join(l for l in src.text.splitlines() if not l.lstrip().startswith("//"))
+
+
+def test_compiler_errors_name_the_file_and_line(gl, tmp_path, monkeypatch):
+    (tmp_path / "main.frag").write_text('#include "helper.glsl"\nout vec4 o;\nvoid main() { o = f(); }\n')
+    (tmp_path / "helper.glsl").write_text("// helper\n\nvec4 f() { return undefined_name; }\n")
+    (tmp_path / "fullscreen.vert").write_text((glsl_dir() / "fullscreen.vert").read_text())
+    monkeypatch.setattr(shader, "glsl_dir", lambda: tmp_path)
+    shader._read.cache_clear()
+    try:
+        with pytest.raises(ShaderError) as e:
+            shader.program(gl.ctx, "fullscreen.vert", "main.frag", "", ("bad",))
+    finally:
+        shader._read.cache_clear()
+    assert "helper.glsl:3" in str(e.value)
+
+
+def test_programs_are_cached_by_feature_key(gl):
+    f = Features(bounces=1)
+    a = shader.program(gl.ctx, "fullscreen.vert", "pathtrace.frag", f.preamble(), f.key)
+    b = shader.program(gl.ctx, "fullscreen.vert", "pathtrace.frag", f.preamble(), f.key)
+    assert a is b
