@@ -19,7 +19,7 @@ def test_every_feature_define_used_in_glsl_is_declared():
 
 
 def test_every_define_is_emitted_as_a_number():
-    on, off = Features(bounces=2).defines(), Features(bounces=2, mis=False, bvh=False).defines()
+    on, off = Features(bounces=2).defines(), Features(bounces=2, sampling="nee", bvh=False).defines()
     assert on.keys() == off.keys()  # a feature switched off is emitted as 0, never left out
     for value in on.values():
         assert isinstance(value, int) and not isinstance(value, bool)
