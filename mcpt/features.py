@@ -4,6 +4,15 @@
 number), so ``#if MCPT_X`` never silently reads an undefined macro, and the program cache is keyed by
 :attr:`Features.key`. ``Features.everything()`` is the uber-shader (``--features all``) used to
 measure what specialisation gains.
+
+Materials: each type compiles its own ``glsl/bsdf_<type>.glsl`` only when the scene uses it; the
+GGX microfacet code only when some conductor is rough; texture and vertex-normal lookups (and
+their UV / normal buffers) only when some material has an ``albedo_texture`` / ``smooth_normals``.
+
+Sampling modes (``sampling``), all unbiased and used by the tests to check one another:
+``"mis"`` (default) light sampling and BSDF sampling combined by the power heuristic; ``"nee"``
+light sampling only at non-specular vertices (emitters hit by a BSDF-sampled ray count only after
+a specular bounce or from the camera); ``"bsdf"`` no light sampling, emission counts when hit.
 """
 
 from __future__ import annotations
@@ -15,12 +24,15 @@ from dataclasses import asdict, dataclass, replace
 RR_START = 3
 
 # Random numbers each path vertex consumes (mcpt/sampler.py documents the layout):
-# light choice, light point (2), BSDF direction (2), roulette.
+# light choice, light point (2), BSDF direction (2), roulette. Materials with two lobes (plastic,
+# dielectric) choose the lobe with the first BSDF number, so no feature adds dimensions.
 DIMS_CAMERA = 2
 DIMS_PER_BOUNCE = 6
 
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
+
+SAMPLING_MODES = ("mis", "nee", "bsdf")
 
 
 @dataclass(frozen=True)
@@ -28,20 +40,46 @@ class Features:
     bounces: int                    # maximum scattering events (0: emitters only)
     lights: bool = True             # any emissive triangle (NEE needs one)
     single_light: bool = False      # exactly one emissive triangle: no light CDF search
-    mis: bool = True                # MIS between light and BSDF sampling (power heuristic)
+    sampling: str = "mis"           # "mis", "nee" (light sampling only), "bsdf" (no light sampling)
     russian_roulette: bool = True   # only matters when bounces > RR_START
     bvh: bool = True                # False: brute-force loop over all triangles
     diffuse: bool = True            # Lambertian material present
+    conductor: bool = False         # conductor (mirror or rough metal) present
+    microfacet: bool = False        # some conductor is rough: GGX code
+    dielectric: bool = False        # smooth glass present
+    absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
+    plastic: bool = False           # diffuse base under a smooth dielectric coat present
+    textures: bool = False          # some albedo is an image: UV buffer, texel buffer
+    smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
 
+    def __post_init__(self):
+        if self.sampling not in SAMPLING_MODES:
+            raise ValueError(f"sampling must be one of {SAMPLING_MODES}, got {self.sampling!r}")
+
     @property
     def nee(self) -> bool:
-        return self.lights and self.bounces >= 1
+        return self.lights and self.bounces >= 1 and self.sampling != "bsdf"
+
+    @property
+    def mis(self) -> bool:
+        return self.nee and self.sampling == "mis"
 
     @property
     def rr(self) -> bool:
         return self.russian_roulette and self.bounces > RR_START
+
+    @property
+    def delta(self) -> bool:
+        """Some material has a specular (delta) lobe: light found through it is not MIS-weighted."""
+        return self.conductor or self.dielectric or self.plastic
+
+    @property
+    def material_texels(self) -> int:
+        """Texels per material in the table: 2 for diffuse-only scenes, 4 with any parameter."""
+        extra = self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
+        return 4 if extra else 2
 
     @property
     def random_dims(self) -> int:
@@ -58,13 +96,22 @@ class Features:
             "MCPT_BOUNCES": self.bounces,
             "MCPT_RAND_DIMS": self.random_dims,
             "MCPT_NEE": b(self.nee),
-            "MCPT_MIS": b(self.nee and self.mis),
+            "MCPT_MIS": b(self.mis),
             "MCPT_LIGHTS": b(self.lights),
             "MCPT_SINGLE_LIGHT": b(self.single_light),
             "MCPT_RR": b(self.rr),
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(self.bvh),
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
+            "MCPT_MAT_CONDUCTOR": b(self.conductor),
+            "MCPT_MICROFACET": b(self.conductor and self.microfacet),
+            "MCPT_MAT_DIELECTRIC": b(self.dielectric),
+            "MCPT_ABSORPTION": b(self.dielectric and self.absorption),
+            "MCPT_MAT_PLASTIC": b(self.plastic),
+            "MCPT_DELTA": b(self.delta),
+            "MCPT_MAT_TEXELS": self.material_texels,
+            "MCPT_TEXTURES": b(self.textures),
+            "MCPT_SMOOTH_NORMALS": b(self.smooth_normals),
             "MCPT_CLAMP": b(self.clamp),
             "MCPT_VARIANCE": b(self.variance),
         }
@@ -74,22 +121,36 @@ class Features:
 
     def everything(self) -> "Features":
         """The uber-shader: every optional code path compiled in (bounces stay as given)."""
-        return replace(self, lights=True, single_light=False, mis=True, russian_roulette=True,
-                       bvh=True, diffuse=True)
+        return replace(self, lights=True, single_light=False, sampling="mis", russian_roulette=True,
+                       bvh=True, diffuse=True, conductor=True, microfacet=True, dielectric=True,
+                       absorption=True, plastic=True, textures=True, smooth_normals=True)
 
 
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
-           mis: bool = True, russian_roulette: bool = True, bvh: bool | None = None,
-           clamp: bool = False, variance: bool = False) -> Features:
-    """Features of a scene from its counts; the one place these decisions are made."""
+           rough: bool = False, absorption: bool = False, textures: bool = False,
+           smooth_normals: bool = False, sampling: str = "mis", russian_roulette: bool = True,
+           bvh: bool | None = None, clamp: bool = False, variance: bool = False) -> Features:
+    """Features of a scene from its counts; the one place these decisions are made.
+
+    ``material_types``: the material types some triangle uses; ``rough``: some conductor has
+    roughness >= 0.001; ``absorption``: some dielectric absorbs; ``textures`` / ``smooth_normals``:
+    some used material has an albedo texture / smooth shading normals.
+    """
     return Features(
         bounces=bounces,
         lights=n_emissive > 0,
         single_light=n_emissive == 1,
-        mis=mis,
+        sampling=sampling,
         russian_roulette=russian_roulette,
         bvh=(n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh,
         diffuse="diffuse" in material_types,
+        conductor="conductor" in material_types,
+        microfacet="conductor" in material_types and rough,
+        dielectric="dielectric" in material_types,
+        absorption="dielectric" in material_types and absorption,
+        plastic="plastic" in material_types,
+        textures=textures,
+        smooth_normals=smooth_normals,
         clamp=clamp,
         variance=variance,
     )

@@ -1,13 +1,66 @@
-"""Material table (GLSL side: glsl/materials.glsl). Two RGBA32UI texels per material:
-(albedo.rgb float bits, type id), (emission.rgb float bits, light_pdf_area float bits)."""
+"""Material table (GLSL side: glsl/materials.glsl).
+
+``features.material_texels`` RGBA32UI texels per material (floats travel as bits):
+
+    0: albedo.rgb, type id          albedo: diffuse reflectance; conductor: Schlick F0
+    1: emission.rgb, light_pdf_area density with which NEE picks a point of this material
+                                    per unit area (needed for MIS, mcpt/lights.py)
+    2: alpha, ior, texture, flags   GGX alpha (conductor), index of refraction (dielectric,
+                                    plastic), albedo texture id (0xffffffff: none), flags
+    3: sigma_a.rgb, fdr_int         absorption coefficient per unit length (dielectric);
+                                    the coat's internal diffuse Fresnel reflectance (plastic)
+
+Texels 2 and 3 exist only when the scene needs one of their values (the data diet): a
+diffuse-only scene without textures or smooth normals uploads 2 texels per material.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
-TYPES = {"diffuse": 0}
+TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
+
+FLAG_SMOOTH_NORMALS = 1
+NO_TEXTURE = 0xFFFFFFFF
+
+#: GGX alpha below which a conductor is a perfect mirror (pbrt-v4's EffectivelySmooth): the
+#: microfacet density of smaller alphas is too peaked for float32.
+MIN_ALPHA = 1e-3
+
+
+def fresnel_dielectric(cos_i, eta):
+    """Unpolarised Fresnel reflectance for light arriving at cos_i (> 0) on the side where the
+    relative index of the other side is ``eta`` (= n_t / n_i); 1 under total internal reflection.
+    The same formula as glsl/bsdf_dielectric.glsl, in float64."""
+    cos_i = np.asarray(cos_i, np.float64)
+    sin2_t = (1.0 - cos_i**2) / eta**2
+    tir = sin2_t >= 1.0
+    cos_t = np.sqrt(np.maximum(1.0 - sin2_t, 0.0))
+    rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    return np.where(tir, 1.0, 0.5 * (rs**2 + rp**2))
+
+
+@lru_cache(maxsize=256)
+def fresnel_diffuse_reflectance(eta: float) -> float:
+    """Hemispherical average of the Fresnel reflectance, 2 * int_0^1 F(mu) mu dmu, for uniformly
+    diffuse light arriving from the side where the other side has relative index ``eta``.
+    Gauss-Legendre on a smooth integrand (eta >= 1: no total internal reflection)."""
+    if eta < 1.0:
+        raise ValueError("use fdr_internal for eta < 1")
+    x, w = np.polynomial.legendre.leggauss(256)
+    mu = 0.5 * (x + 1.0)
+    return float(np.sum(0.5 * w * fresnel_dielectric(mu, eta) * 2.0 * mu))
+
+
+def fdr_internal(ior: float) -> float:
+    """Diffuse Fresnel reflectance seen from INSIDE a coat of index ``ior`` (with total internal
+    reflection), from the external one by the reciprocity relation 1 - Fdr_int = (1 - Fdr_ext) / ior^2.
+    This exact identity is what makes a white plastic reflect all light it receives."""
+    return 1.0 - (1.0 - fresnel_diffuse_reflectance(float(ior))) / float(ior) ** 2
 
 
 @dataclass(frozen=True)
@@ -16,12 +69,50 @@ class MaterialTable:
     types: tuple[str, ...]
     albedo: np.ndarray          # (M, 3) linear RGB reflectance
     emission: np.ndarray        # (M, 3) emitted radiance, front side only
+    alpha: np.ndarray = None    # (M,) GGX alpha (conductor; 0: mirror)
+    ior: np.ndarray = None      # (M,) index of refraction (dielectric, plastic)
+    texture: np.ndarray = None  # (M,) albedo texture id, -1: none
+    smooth: np.ndarray = None   # (M,) bool: shade with vertex normals
+    sigma_a: np.ndarray = None  # (M, 3) absorption per unit length (dielectric)
 
-    def pack(self, light_pdf_area: np.ndarray) -> np.ndarray:
+    def __post_init__(self):
         m = len(self.names)
-        out = np.zeros((2 * max(m, 1), 4), np.uint32)
-        out[0:2 * m:2, :3] = self.albedo.astype(np.float32).view(np.uint32)
-        out[0:2 * m:2, 3] = [TYPES[t] for t in self.types]
-        out[1:2 * m:2, :3] = self.emission.astype(np.float32).view(np.uint32)
-        out[1:2 * m:2, 3] = np.asarray(light_pdf_area, np.float32).view(np.uint32)
-        return out
+        defaults = {"alpha": np.zeros(m), "ior": np.full(m, 1.5), "texture": np.full(m, -1, np.int64),
+                    "smooth": np.zeros(m, bool), "sigma_a": np.zeros((m, 3))}
+        for k, v in defaults.items():
+            if getattr(self, k) is None:
+                object.__setattr__(self, k, v)
+
+    def used(self, ids) -> list[int]:
+        return sorted({int(i) for i in np.unique(ids)})
+
+    def rough(self, ids) -> bool:
+        return any(self.types[i] == "conductor" and self.alpha[i] >= MIN_ALPHA for i in self.used(ids))
+
+    def absorbing(self, ids) -> bool:
+        return any(self.types[i] == "dielectric" and self.sigma_a[i].max() > 0 for i in self.used(ids))
+
+    def textured(self, ids) -> bool:
+        return any(self.texture[i] >= 0 for i in self.used(ids))
+
+    def smooth_shaded(self, ids) -> bool:
+        return any(bool(self.smooth[i]) for i in self.used(ids))
+
+    def pack(self, light_pdf_area: np.ndarray, texels: int = 2) -> np.ndarray:
+        m = len(self.names)
+        out = np.zeros((max(m, 1), texels, 4), np.uint32)
+        f32 = lambda a: np.asarray(a, np.float32).view(np.uint32)  # noqa: E731
+        out[:m, 0, :3] = f32(self.albedo)
+        out[:m, 0, 3] = [TYPES[t] for t in self.types]
+        out[:m, 1, :3] = f32(self.emission)
+        out[:m, 1, 3] = f32(light_pdf_area)
+        if texels >= 4:
+            alpha = np.where(self.alpha >= MIN_ALPHA, self.alpha, 0.0)
+            out[:m, 2, 0] = f32(alpha)
+            out[:m, 2, 1] = f32(self.ior)
+            out[:m, 2, 2] = np.where(self.texture >= 0, self.texture, NO_TEXTURE).astype(np.uint32)
+            out[:m, 2, 3] = np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0).astype(np.uint32)
+            out[:m, 3, :3] = f32(self.sigma_a)
+            fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
+            out[:m, 3, 3] = f32(fdr)
+        return out.reshape(-1, 4)

@@ -1,0 +1,138 @@
+"""Image textures for albedo (GLSL side: glsl/texture.glsl).
+
+Images are read with OpenCV (8-bit, or 16-bit rounded to 8-bit; grey, RGB or RGBA, alpha
+ignored) and kept **sRGB-encoded**, 8 bits per channel: the shader decodes each texel to linear
+RGB with the exact sRGB curve and filters in linear RGB, like a GPU's SRGB8 texture. That keeps a
+texel at 4 bytes and every decoded value exact (a float16 copy would take 8).
+
+All textures of a scene share one RGBA32UI buffer texture ("textures", mcpt/tbo.py):
+
+    texel j < n:        header of texture j: (first data texel, width, height, flags)
+                        flags: bits 0-1 wrap (0 repeat, 1 clamp, 2 mirror), bit 2 nearest filter
+    data texels:        4 pixels per texel, one uint each: R | G << 8 | B << 16 | A << 24 (sRGB),
+                        rows from the BOTTOM of the image (texel row y holds v in [y, y+1) / height)
+
+so texture coordinates (u, v) with v up (the OBJ convention) address pixel (u W - 1/2, v H - 1/2)
+directly. A plain buffer texture rather than a sampler2D: no extra binding in the renderer and no
+atlas packing, and every mcpt buffer is then checked against the same GL limits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+WRAP = {"repeat": 0, "clamp": 1, "mirror": 2}
+FLAG_NEAREST = 4
+
+
+class TextureError(ValueError):
+    """An image cannot be used as a texture; the message names the file."""
+
+
+@dataclass(frozen=True)
+class Texture:
+    path: Path
+    wrap: str
+    filter: str
+    srgb: np.ndarray   # (H, W, 3) uint8, sRGB-encoded, row 0 = BOTTOM of the image (v = 0)
+
+    @property
+    def width(self) -> int:
+        return int(self.srgb.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.srgb.shape[0])
+
+    @property
+    def flags(self) -> int:
+        return WRAP[self.wrap] | (FLAG_NEAREST if self.filter == "nearest" else 0)
+
+    def mean_linear(self) -> np.ndarray:
+        return srgb_to_linear(self.srgb).reshape(-1, 3).mean(axis=0)
+
+
+def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear") -> Texture:
+    import cv2  # only scenes with textures pay for the import
+
+    path = Path(path)
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise TextureError(f"{path}: cannot read the image (missing, or not a format OpenCV reads)")
+    if img.dtype == np.uint16:
+        img = ((img.astype(np.uint32) * 255 + 32767) // 65535).astype(np.uint8)
+    elif img.dtype != np.uint8:
+        raise TextureError(f"{path}: {img.dtype} pixels; albedo textures must be 8- or 16-bit images")
+    if img.ndim == 2:
+        img = np.repeat(img[:, :, None], 3, axis=2)
+    elif img.shape[2] == 1:
+        img = np.repeat(img, 3, axis=2)
+    elif img.shape[2] == 2:  # grey + alpha
+        img = np.repeat(img[:, :, :1], 3, axis=2)
+    else:
+        img = img[:, :, 2::-1]  # BGR(A) -> RGB
+    if img.shape[0] < 1 or img.shape[1] < 1:
+        raise TextureError(f"{path}: empty image")
+    return Texture(path, wrap, filter, np.ascontiguousarray(img[::-1]))
+
+
+def srgb_to_linear(c) -> np.ndarray:
+    """The sRGB decoding curve (IEC 61966-2-1) for 8-bit values, in float64."""
+    c = np.asarray(c, np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def pack_textures(textures: list[Texture]) -> np.ndarray:
+    """The ``textures`` buffer: headers, then each image's pixels, 4 per RGBA32UI texel."""
+    n = len(textures)
+    chunks, headers = [], np.zeros((max(n, 1), 4), np.uint32)
+    offset = n
+    for j, t in enumerate(textures):
+        rgb = t.srgb.reshape(-1, 3).astype(np.uint32)
+        px = rgb[:, 0] | (rgb[:, 1] << 8) | (rgb[:, 2] << 16) | np.uint32(0xFF000000)
+        pad = (-px.size) % 4
+        px = np.concatenate([px, np.zeros(pad, np.uint32)]).reshape(-1, 4)
+        headers[j] = (offset, t.width, t.height, t.flags)
+        chunks.append(px)
+        offset += px.shape[0]
+    return np.concatenate([headers[:max(n, 1)]] + chunks) if chunks else headers
+
+
+def _wrap_index(i: np.ndarray, n: int, wrap: str) -> np.ndarray:
+    if wrap == "repeat":
+        return np.mod(i, n)
+    if wrap == "clamp":
+        return np.clip(i, 0, n - 1)
+    p = np.mod(i, 2 * n)
+    return np.where(p < n, p, 2 * n - 1 - p)
+
+
+def _reduce(u: np.ndarray, wrap: str) -> np.ndarray:
+    if wrap == "repeat":
+        return u - np.floor(u)
+    if wrap == "clamp":
+        return np.clip(u, 0.0, 1.0)
+    return u - 2.0 * np.floor(u / 2.0)
+
+
+def lookup(t: Texture, uv: np.ndarray) -> np.ndarray:
+    """Reference lookup (float64): the linear RGB the shader returns at texture coordinates uv."""
+    uv = np.asarray(uv, np.float64)
+    lin = srgb_to_linear(t.srgb)
+    u, v = _reduce(uv[:, 0], t.wrap), _reduce(uv[:, 1], t.wrap)
+    if t.filter == "nearest":
+        x = _wrap_index(np.floor(u * t.width).astype(np.int64), t.width, t.wrap)
+        y = _wrap_index(np.floor(v * t.height).astype(np.int64), t.height, t.wrap)
+        return lin[y, x]
+    x, y = u * t.width - 0.5, v * t.height - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+    xs = [_wrap_index(x0, t.width, t.wrap), _wrap_index(x0 + 1, t.width, t.wrap)]
+    ys = [_wrap_index(y0, t.height, t.wrap), _wrap_index(y0 + 1, t.height, t.wrap)]
+    top = lin[ys[1], xs[0]] * (1 - fx) + lin[ys[1], xs[1]] * fx
+    bot = lin[ys[0], xs[0]] * (1 - fx) + lin[ys[0], xs[1]] * fx
+    return bot * (1 - fy) + top * fy
