@@ -29,8 +29,7 @@ setup: system-deps $(STAMP)
 
 render: setup
 	mkdir -p out
-	$(VENV)/bin/mcpt render $(SCENE) --spp 256 -o out/cornell-box.png
-	$(VENV)/bin/mcpt render $(SCENE) --spp 256 -o out/cornell-box.exr --quiet
+	$(VENV)/bin/mcpt render $(SCENE) --spp 256 -o out/cornell-box.png -o out/cornell-box.exr
 
 test: setup
 	$(PY) -m pytest -q

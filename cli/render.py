@@ -37,31 +37,33 @@ class Progress:
 @main.command()
 @click.argument("scene_file", type=click.Path(dir_okay=False))
 @render_options
-@click.option("-o", "--output", default="out/render.exr", show_default=True,
-              help="Output image; the format follows the extension (.exr linear float, .png sRGB 8-bit).")
+@click.option("-o", "--output", "outputs", multiple=True, default=["out/render.exr"], show_default=True,
+              help="Output image; the format follows the extension (.exr linear float, .png sRGB "
+                   "8-bit). Repeat to write several files from one render.")
 @click.option("--exposure", type=float, default=0.0, show_default=True, help="PNG only: exposure in stops.")
 @click.option("--clamp", type=float, default=None,
               help="BIASED: clamp each sample's largest component to this value (off by default).")
 @click.option("--json", "as_json", is_flag=True, help="Print the render summary as JSON on stdout.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @reports_errors
-def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, output, exposure,
+def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, outputs, exposure,
            clamp, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     from mcpt.api import render_scene
     from mcpt.image import check_output_path
 
-    check_output_path(output)  # fail before minutes of rendering, not after
+    for output in outputs:
+        check_output_path(output)  # fail before minutes of rendering, not after
     progress = Progress(1, enabled=not quiet and sys.stderr.isatty())
-    result, meta = render_scene(scene_file, output=output, spp=spp, bounces=bounces, seed=seed,
+    result, meta = render_scene(scene_file, outputs=outputs, spp=spp, bounces=bounces, seed=seed,
                                 resolution=resolution, gl_backend=gl_backend,
                                 features_mode=features_mode, clamp=clamp, exposure=exposure,
                                 progress=progress)
-    summary = {"output": str(output), **meta, "mcpt_version": __version__}
+    summary = {"outputs": [str(o) for o in outputs], **meta, "mcpt_version": __version__}
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
-        click.echo(f"wrote {output}: {meta['width']}x{meta['height']}, {result.spp} spp, "
+        click.echo(f"wrote {', '.join(outputs)}: {meta['width']}x{meta['height']}, {result.spp} spp, "
                    f"{result.bounces} bounces, {result.render_seconds:.2f} s render "
                    f"({result.paths_per_second / 1e6:.2f} Mpaths/s), set-up {meta['setup_seconds']:.2f} s"
                    + (f", {result.dropped_samples} non-finite samples dropped" if result.dropped_samples else ""),

@@ -59,10 +59,11 @@ def metadata(p: Prepared, result: RenderResult) -> dict:
     }
 
 
-def render_scene(scene, *, output=None, spp=None, bounces=None, seed=None, resolution=None,
+def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolution=None,
                  gl_backend=None, features_mode="scene", clamp=None, exposure=0.0, progress=None):
-    """Render a scene (file or Scene) and write ``output`` if given; returns (result, metadata)."""
-    if output is not None:
+    """Render a scene (file or Scene), write each of ``outputs``; returns (result, metadata)."""
+    outputs = [outputs] if isinstance(outputs, (str, Path)) else list(outputs)
+    for output in outputs:
         check_output_path(output)
     p = prepare(scene, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
                 gl_backend=gl_backend, features_mode=features_mode, clamp=clamp)
@@ -72,8 +73,8 @@ def render_scene(scene, *, output=None, spp=None, bounces=None, seed=None, resol
     result = p.renderer.render(rs.spp, rs.seed, progress=progress, clamp=clamp)
     meta = metadata(p, result)
     p.renderer.release()
-    if output is not None:
-        exr_meta = {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}
+    exr_meta = {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}
+    for output in outputs:
         write_image(output, result.image, exr_meta, exposure)
     return result, meta
 
