@@ -144,6 +144,7 @@ class Renderer:
                 buf.write(self._numbers)
                 buf.bind()
                 self._uniform("u_tile", (x0, y0, w, h))
+                self._uniform("u_rand_stride", w * h)
                 # GL rows count from the bottom; tiles are given from the top.
                 ctx.scissor = (x0, self.height - y0 - h, w, h)
                 self.vao.render(moderngl.TRIANGLES, vertices=3)

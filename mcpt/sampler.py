@@ -3,13 +3,15 @@
 Layout of one pass's numbers (float32 in [0, 1), 24 random bits each, one ``R32F`` buffer
 texture, ``D = features.random_dims``)::
 
-    index = pixel * D + dim,   pixel = row_in_tile * tile_width + column_in_tile (rows from the top)
+    index = dim * P + pixel,   P = pixels in the tile,
+                               pixel = row_in_tile * tile_width + column_in_tile (rows from the top)
     dim 0, 1                 camera jitter inside the pixel (box filter)
     dim 2 + 6 (k - 1) + ...  bounce k = 1..bounces:
         + 0 light choice,  + 1, + 2 point on the light,  + 3, + 4 BSDF direction,  + 5 roulette
 
-so a pixel reads only its own ``D`` consecutive numbers, each dimension of its path gets its own
-number, and no two pixels or bounces share one. Pass ``p`` of tile ``t`` draws from its own PCG64
+so a pixel reads only its own ``D`` numbers, each dimension of its path gets its own number, and
+no two pixels or bounces share one. Dimension-major order makes neighbouring pixels, shaded side by
+side in one SIMD batch (llvmpipe) or warp (GPU), read neighbouring addresses. Pass ``p`` of tile ``t`` draws from its own PCG64
 stream seeded by ``SeedSequence([seed, t, p])``: passes never reuse numbers (the thesis's code did),
 the same seed gives the same image, and any pass can be regenerated on its own (no state to carry).
 
