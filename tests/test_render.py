@@ -79,3 +79,26 @@ def test_passes_never_reuse_random_numbers():
     assert np.array_equal(a, r.for_pass(0))  # regenerable from (seed, tile, pass)
     assert len(np.intersect1d(a, b)) < 0.01 * a.size  # only chance collisions of 24-bit values
     assert len(np.intersect1d(a, other_tile)) < 0.01 * a.size
+
+
+def test_exr_output_is_linear_float32_with_the_render_metadata(tmp_path):
+    from mcpt.api import render_scene
+
+    out = tmp_path / "c.exr"
+    png = tmp_path / "c.png"
+    result, meta = render_scene(CORNELL, outputs=[out, png], spp=4, bounces=1, seed=9,
+                                resolution=(40, 32))
+    rgb, header = read_exr(out)
+    assert rgb.dtype == np.float32 and rgb.shape == (32, 40, 3)
+    assert np.array_equal(rgb, result.image)  # lossless: exactly the averaged passes
+    for key, value in (("spp", "4"), ("bounces", "1"), ("seed", "9"), ("mcpt_version", meta["mcpt_version"])):
+        assert header[f"mcpt:{key}"] == value
+    assert float(header["mcpt:render_seconds"]) > 0
+    assert header["mcpt:gl_renderer"] == meta["gl_renderer"] and meta["gl_renderer"]
+    import cv2
+
+    bgr = cv2.imread(str(png))
+    assert bgr.shape == (32, 40, 3) and bgr.dtype == np.uint8
+    # Red wall on the left (scene.json: image x axis points to the viewer's right).
+    left, right = bgr[10:22, 6:9].mean((0, 1)), bgr[10:22, -9:-6].mean((0, 1))
+    assert left[2] > left[1] and right[1] > right[2]
