@@ -50,6 +50,7 @@ def main(verbose: int) -> None:
 
 def _register() -> None:
     from . import info, render  # noqa: F401  (each module adds its command to `main`)
+    from . import bench  # noqa: F401  (mcpt bench: bench/ sweeps, issue #5)
 
 
 _register()
