@@ -57,7 +57,8 @@ def throughput_figures() -> dict:
             continue
         row = max(d["rows"], key=lambda r: r["spp"])
         out[variant] = {"label": f"Mitsuba {d.get('mitsuba', '3')} {d.get('variant', variant)}",
-                        "scene": "cornell", "spp": row["spp"], "paths_per_second": row["paths_per_s"]}
+                        "scene": "cornell", "spp": row["spp"], "paths_per_second": row["paths_per_s"],
+                        "paths_per_cpu_second": row.get("paths_per_cpu_s")}
     return out
 
 

@@ -22,7 +22,8 @@ DPI = 110
 
 def _save(fig, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
     return path
@@ -42,7 +43,7 @@ def plot_bounces(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
     recs = res["records"]
     st = res["settings"]
     b = [r["bounces"] for r in recs]
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     for i, (c, name) in enumerate(zip(("tab:red", "tab:green", "tab:blue"), ("R", "G", "B"))):
         a1.plot(b, [r["mean_rgb"][i] for r in recs], "o-", color=c, lw=1, ms=4, label=f"mean {name}")
     a1.plot(b, [r["mean_luminance"] for r in recs], "s-", color="k", lw=2, label="mean luminance")
@@ -52,7 +53,7 @@ def plot_bounces(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
     a1.set_title(f"Brightness against bounces ({'converges' if conv else 'NOT converged'})")
     a1.set_xticks(b)
     a1.grid(alpha=0.3)
-    a1.legend(fontsize=8)
+    a1.legend(fontsize=8, loc="lower right")
     a2.plot(b, [r["paths_per_second"] / 1e6 for r in recs], "o-", label=f"mcpt ({st['resolution'][0]}x"
             f"{st['resolution'][1]}, {st['spp']} spp)")
     pb = peer.bounce_figures()
@@ -71,7 +72,7 @@ def plot_bounces(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
     # Contact sheet of the images.
     imgs = [(r, out / r["image"]) for r in recs if (out / r["image"]).exists()]
     if imgs:
-        fig, axes = plt.subplots(1, len(imgs), figsize=(2.2 * len(imgs), 2.6))
+        fig, axes = plt.subplots(1, len(imgs), figsize=(2.2 * len(imgs), 2.8), layout="constrained")
         for ax, (r, p) in zip(np.atleast_1d(axes), imgs):
             ax.imshow(plt.imread(p))
             ax.set_title(f"{r['bounces']} bounce{'s' if r['bounces'] != 1 else ''}\n"
@@ -95,7 +96,7 @@ def plot_triangles(res: dict, out: Path, meta: dict | None = None) -> list[Path]
     capped = [r for r in recs if r["accel"] == "brute" and r["status"] == "capped"]
     us = lambda r: r["seconds_per_pass"] / (w * h) * 1e6  # noqa: E731  microseconds per path
 
-    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(15, 4.5))
+    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(15, 4.8), layout="constrained")
     n = [r["triangles"] for r in bvh]
     a1.plot(n, [us(r) for r in bvh], "o-", color="tab:blue", label="mcpt, BVH")
     if brute:
@@ -165,7 +166,7 @@ def plot_error(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
     t = [r["render_seconds"] for r in recs]
     rel = [r["relmse"] for r in recs]
     spp = [r["spp"] for r in recs]
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.6))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
     a1.plot(t, rel, "o", color="tab:blue", label="mcpt (GLSL on llvmpipe)")
     fd = sm.get("fit_relmse_vs_seconds")
     if fd:
@@ -217,7 +218,7 @@ def plot_throughput(res: dict, out: Path, meta: dict | None = None) -> list[Path
     sm = res["summary"]
     st = res["settings"]
     names = list(sm["scenes"])
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.4))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
     x = np.arange(len(names))
     wdt = 0.35
     spec = [(sm["scenes"][n]["paths_per_second"] or 0.0) / 1e6 for n in names]

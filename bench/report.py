@@ -31,15 +31,17 @@ def section_throughput(d: dict) -> list[str]:
          f"{st['repeats']} run(s), scene and uber-shader runs interleaved. Set-up is excluded from "
          "paths/s and listed apart. Compile figures come from a fresh process with Mesa's disk "
          "shader cache off (bench/compile_probe.py); in a warm process both are near zero.", "",
-         "| scene | triangles | Mpaths/s specialised | Mpaths/s `--features all` | ratio | compile s, cold (spec / all) "
+         "| scene | triangles | Mpaths/s specialised | Mpaths/s `--features all` | ratio | Mpaths/CPU-s (spec / all) | compile s, cold (spec / all) "
          "| first-draw JIT s, cold (spec / all) | upload bytes (spec / all) | set-up s | random numbers, share of render |",
-         "|---|---:|---:|---:|---:|---|---|---|---:|---:|"]
+         "|---|---:|---:|---:|---:|---|---|---|---|---:|---:|"]
     M = 1e-6
     for name, s in sm["scenes"].items():
         pps, ppa = s.get("paths_per_second"), s.get("paths_per_second_all")
         cc, cj, ub = s["cold_compile_seconds"], s["cold_jit_seconds"], s["upload_bytes"]
+        cpu = s.get("paths_per_cpu_second") or {}
         L.append(f"| {name} | {_f(s['triangles'], ',d')} | {_f(pps and pps * M, '.3f')} | "
                  f"{_f(ppa and ppa * M, '.3f', 'failed')} | {_f(s.get('speedup_scene_vs_all'), '.2f')}x | "
+                 f"{_f(cpu.get('scene') and cpu['scene'] * M, '.3f')} / {_f(cpu.get('all') and cpu['all'] * M, '.3f')} | "
                  f"{_f(cc.get('scene'), '.3f')} / {_f(cc.get('all'), '.3f')} | "
                  f"{_f(cj.get('scene'), '.3f')} / {_f(cj.get('all'), '.3f')} | "
                  f"{_f(ub.get('scene'), ',d')} / {_f(ub.get('all'), ',d')} | "
@@ -57,7 +59,9 @@ def section_throughput(d: dict) -> list[str]:
     pk = sm.get("peer", {})
     if pk:
         L += ["", "Mitsuba 3 on the same Cornell box, same machine kind (peer study): " + "; ".join(
-            f"{d['label']} {d['paths_per_second'] / 1e6:.2f} Mpaths/s ({d['spp']} spp)" for d in pk.values()) + "."]
+            f"{d['label']} {d['paths_per_second'] / 1e6:.2f} Mpaths/s, "
+            f"{_f(d.get('paths_per_cpu_second') and d['paths_per_cpu_second'] / 1e6, '.2f')} Mpaths/CPU-s "
+            f"({d['spp']} spp)" for d in pk.values()) + "."]
     L += ["", "![throughput](throughput.png)", ""]
     return L
 
@@ -141,13 +145,15 @@ def section_bounces(d: dict) -> list[str]:
     sm, st, recs = d["summary"], d["settings"], d["records"]
     L = ["## Bounce sweep", "", _meta_line(d["meta"]), "",
          f"Cornell box {st['resolution'][0]}x{st['resolution'][1]}, {st['spp']} spp, seed {st['seed']}.", "",
-         "| bounces | mean R | mean G | mean B | mean luminance | step | render s | Mpaths/s |",
+         "| bounces | mean R | mean G | mean B | mean luminance ± std. error | step ± std. error | render s | Mpaths/s |",
          "|---:|---:|---:|---:|---:|---:|---:|---:|"]
     steps = [None] + sm["steps"]
-    for r, s in zip(recs, steps):
+    ses = [None] + sm.get("steps_stderr", [None] * len(sm["steps"]))
+    for r, s, se in zip(recs, steps, ses):
+        step = "" if s is None else f"{s:+.5f}" + (f" ± {se:.5f}" if se is not None else "")
         L.append(f"| {r['bounces']} | {r['mean_rgb'][0]:.5f} | {r['mean_rgb'][1]:.5f} | {r['mean_rgb'][2]:.5f} | "
-                 f"{r['mean_luminance']:.5f} | {_f(s, '+.5f')} | {r['render_seconds']:.2f} | "
-                 f"{r['paths_per_second'] / 1e6:.3f} |")
+                 f"{r['mean_luminance']:.5f} ± {_f(r.get('mean_luminance_stderr'), '.5f')} | {step} | "
+                 f"{r['render_seconds']:.2f} | {r['paths_per_second'] / 1e6:.3f} |")
     L += ["", f"- converges (last step smaller than the one before): **{'yes' if sm['converges'] else 'NO'}**",
           "", "![bounces](bounces.png)", "", "![contact sheet](bounces-sheet.png)", ""]
     return L

@@ -16,6 +16,7 @@ never exits or prints on its own.
 
 from __future__ import annotations
 
+import resource
 import statistics
 import time
 from dataclasses import dataclass, field, replace
@@ -120,10 +121,18 @@ def _open(path, cfg: Config, *, resolution, bounces=None, features_mode="scene",
     return Session(p, first, info)
 
 
+def _cpu_seconds() -> float:
+    """User + system CPU seconds of this process, all threads (llvmpipe's included)."""
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    return ru.ru_utime + ru.ru_stime
+
+
 def _render(s: Session, spp: int, seed: int) -> tuple[object, dict]:
+    c0 = _cpu_seconds()
     t0 = time.perf_counter()
     r = s.p.renderer.render(spp, seed)
     wall = time.perf_counter() - t0
+    cpu = _cpu_seconds() - c0
     mean = r.image.reshape(-1, 3).astype(np.float64).mean(axis=0)
     return r, {
         "spp": spp,
@@ -131,6 +140,9 @@ def _render(s: Session, spp: int, seed: int) -> tuple[object, dict]:
         "wall_seconds": wall,
         "seconds_per_pass": r.render_seconds / spp,
         "paths_per_second": r.paths_per_second,
+        # CPU seconds are steadier than wall seconds when other work shares the two cores
+        "cpu_seconds": cpu,
+        "paths_per_cpu_second": r.image.shape[0] * r.image.shape[1] * spp / max(cpu, 1e-12),
         "random_seconds": r.random_seconds,
         "random_fraction": r.random_seconds / max(r.render_seconds, 1e-12),
         "dropped_samples": r.dropped_samples,
@@ -423,6 +435,7 @@ def throughput_sweep(cfg: Config, log=_noop) -> dict:
                    "bounces": 8, "seed": cfg.seed, "spp": cfg.tp_spp, "repeats": cfg.tp_repeats,
                    "paths_per_second": pps,
                    "render_seconds": statistics.median(r["render_seconds"] for r in rs),
+                   "paths_per_cpu_second": statistics.median(r["paths_per_cpu_second"] for r in rs),
                    "random_fraction": statistics.median(r["random_fraction"] for r in rs),
                    "mean_rgb": rs[0]["mean_rgb"], "runs": rs, "setup": s.info,
                    "cold_compile": cold[mode]}
@@ -447,6 +460,7 @@ def _throughput_summary(per: dict, failed: dict, cold: dict, images: dict) -> di
         "triangles": any_rec.get("setup", {}).get("triangles"),
         "paths_per_second": per["scene"]["paths_per_second"] if "scene" in per else None,
         "paths_per_second_all": per["all"]["paths_per_second"] if "all" in per else None,
+        "paths_per_cpu_second": both(lambda r: r["paths_per_cpu_second"]),
         "speedup_scene_vs_all": (per["scene"]["paths_per_second"] / per["all"]["paths_per_second"]
                                  if len(per) == 2 else None),
         "compile_seconds_warm": both(lambda r: r["setup"]["compile_seconds"]),
