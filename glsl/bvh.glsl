@@ -15,6 +15,12 @@ bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax, out float tnear
     vec3 t1 = (bmax - o) * inv;
     vec3 tsm = min(t0, t1);
     vec3 tbg = max(t0, t1);
+    // A ray parallel to a slab (|inv| huge: safe_inv replaced a zero component) whose origin lies
+    // exactly on one of the slab's planes got 0 * inv = 0 there, i.e. left the box at t = 0, so a
+    // ray running inside a box face (flat boxes of axis-aligned walls) missed the box (issue #6,
+    // case watertight-flat-grid-axis-rays). Such a ray stays in the slab for every t when its
+    // origin is inside it, bounds included: push the slab's far distance out of reach.
+    tbg += step(1e29, abs(inv)) * step(bmin, o) * step(o, bmax) * 3e38;
     float tn = max(max(tsm.x, tsm.y), max(tsm.z, 0.0));
     float tf = min(min(tbg.x, tbg.y), min(tbg.z, tmax)) * 1.0000004;
     tnear = tn;

@@ -16,10 +16,17 @@ float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 // than by a fixed epsilon (Waechter & Binder, "A Fast and Robust Method for Avoiding
 // Self-Intersection", Ray Tracing Gems ch. 6). Integer arithmetic on the bits is immune to
 // fast-math reassociation.
+//
+// The method's two constants for coordinates near zero (ORIGIN, FLOAT_SCALE) are absolute and
+// tuned for scenes of unit size: in a Cornell box scaled by 1e-4 every coordinate is "near zero"
+// and the fixed 1.5e-5 offset (7 % of the box) pushed ceiling points below the light, which then lit
+// the ceiling (issue #6, case cornell-scale-0.0001: +8 % energy). Here they are taken relative to the
+// point's largest coordinate m, which makes the offset scale-invariant; m ~ 1 gives the original.
 vec3 offset_ray(vec3 p, vec3 n) {
-    const float ORIGIN = 1.0 / 32.0;
-    const float FLOAT_SCALE = 1.0 / 65536.0;
     const float INT_SCALE = 256.0;
+    float m = max(max(abs(p.x), abs(p.y)), abs(p.z));
+    float ORIGIN = m * (1.0 / 32.0);
+    float FLOAT_SCALE = m * (1.0 / 65536.0);
     ivec3 of_i = ivec3(INT_SCALE * n);
     vec3 p_i = vec3(
         intBitsToFloat(floatBitsToInt(p.x) + (p.x < 0.0 ? -of_i.x : of_i.x)),
