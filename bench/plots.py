@@ -218,7 +218,7 @@ def plot_throughput(res: dict, out: Path, meta: dict | None = None) -> list[Path
     sm = res["summary"]
     st = res["settings"]
     names = list(sm["scenes"])
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 5.6), layout="constrained")
     x = np.arange(len(names))
     wdt = 0.35
     spec = [(sm["scenes"][n]["paths_per_second"] or 0.0) / 1e6 for n in names]
@@ -238,7 +238,12 @@ def plot_throughput(res: dict, out: Path, meta: dict | None = None) -> list[Path
     a1.set_title(f"Paths per second, {st['resolution'][0]}x{st['resolution'][1]}, 8 bounces, "
                  f"{st['spp']} spp (set-up excluded)")
     a1.grid(alpha=0.3, axis="y", which="both")
-    a1.legend(fontsize=7, loc="lower left")
+    for i, n in enumerate(names):
+        for off, key in ((-wdt / 2, "paths_per_second"), (wdt / 2, "paths_per_second_all")):
+            if not sm["scenes"][n].get(key):
+                a1.annotate("failed", (x[i] + off, 0.5), xycoords=("data", "axes fraction"),
+                            ha="center", fontsize=8, color="tab:red", rotation=90)
+    a1.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
 
     def pair(key, n):
         d = sm["scenes"][n].get(key) or {}
@@ -258,7 +263,7 @@ def plot_throughput(res: dict, out: Path, meta: dict | None = None) -> list[Path
     a2.set_ylabel("seconds")
     a2.set_title("Shader compile seconds (fresh process, Mesa shader cache off)")
     a2.grid(alpha=0.3, axis="y")
-    a2.legend(fontsize=7)
+    a2.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
     fig.suptitle(f"Throughput and specialisation — {_gl_note(meta)}", fontsize=9)
     return [_save(fig, out / "throughput.png")]
 
