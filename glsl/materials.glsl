@@ -1,16 +1,143 @@
-// Material table (host side: mcpt/materials.py). Two RGBA32UI texels per material:
-//   (albedo.rgb float bits, type), (emission.rgb float bits, light_pdf_area float bits)
+// Material table and BSDF dispatch (host side: mcpt/materials.py, which documents the layout).
+// MCPT_MAT_TEXELS RGBA32UI texels per material:
+//   0 (albedo.rgb, type)  1 (emission.rgb, light_pdf_area)              -- always
+//   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS == 4
 // light_pdf_area = luminance(Le) / total emitted power: the density, per unit area, with which
 // next-event estimation picks a point on a triangle of this material (needed for MIS).
+//
+// Every BSDF works with a shading normal n on the side of wo (dot(n, wo) > 0) and returns
+// f * |cos| (never f alone), so a Lambertian's 1/pi and cosine cancel against its pdf in one
+// place. Each material type lives in its own file, compiled only when the scene uses it.
 layout(binding = 4) uniform usamplerBuffer u_materials;
 
-struct Material { vec3 albedo; int type; vec3 emission; float light_pdf_area; };
+#define MAT_DIFFUSE 0
+#define MAT_CONDUCTOR 1
+#define MAT_DIELECTRIC 2
+#define MAT_PLASTIC 3
+#define MAT_FLAG_SMOOTH 1u
+
+struct Material {
+    vec3 albedo; int type; vec3 emission; float light_pdf_area;
+#if MCPT_MAT_TEXELS > 2
+    float alpha;    // GGX alpha (conductor; 0: mirror)
+    float ior;      // index of refraction (dielectric, plastic); the outside is air
+    int texture;    // albedo texture id, -1: none
+    uint flags;     // MAT_FLAG_SMOOTH: shade with interpolated vertex normals
+    vec3 sigma_a;   // absorption per unit length inside a dielectric
+    float fdr_int;  // plastic: diffuse Fresnel reflectance of the coat seen from inside
+#endif
+};
 
 Material material(int id) {
-    uvec4 a = texelFetch(u_materials, 2 * id);
-    uvec4 b = texelFetch(u_materials, 2 * id + 1);
+    int base = MCPT_MAT_TEXELS * id;
+    uvec4 a = texelFetch(u_materials, base);
+    uvec4 b = texelFetch(u_materials, base + 1);
     Material m;
     m.albedo = uintBitsToFloat(a.xyz); m.type = int(a.w);
     m.emission = uintBitsToFloat(b.xyz); m.light_pdf_area = uintBitsToFloat(b.w);
+#if MCPT_MAT_TEXELS > 2
+    uvec4 c = texelFetch(u_materials, base + 2);
+    uvec4 d = texelFetch(u_materials, base + 3);
+    m.alpha = uintBitsToFloat(c.x); m.ior = uintBitsToFloat(c.y);
+    m.texture = int(c.z); m.flags = c.w;
+    m.sigma_a = uintBitsToFloat(d.xyz); m.fdr_int = uintBitsToFloat(d.w);
+#endif
     return m;
+}
+
+float max3(vec3 v) { return max(v.r, max(v.g, v.b)); }
+
+// What sampling a BSDF returns.
+struct BsdfSample {
+    vec3 wi;        // sampled direction (unit, world space)
+    vec3 weight;    // f |cos| / pdf, the lobe-choice probability included
+    float pdf;      // solid-angle density of wi over the non-delta lobes (MIS); 0 if delta
+    bool delta;     // specular: an emitter found along wi is not MIS-weighted
+    bool transmit;  // wi leaves through the other side of the surface
+    float eta2;     // squared relative index crossed (1 unless refracted), for roulette
+};
+
+#if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC
+#include "bsdf_diffuse.glsl"
+#endif
+#if MCPT_MICROFACET
+#include "bsdf_ggx.glsl"
+#endif
+#if MCPT_MAT_CONDUCTOR
+#include "bsdf_conductor.glsl"
+#endif
+#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC
+#include "bsdf_fresnel.glsl"
+#endif
+#if MCPT_MAT_DIELECTRIC
+#include "bsdf_dielectric.glsl"
+#endif
+#if MCPT_MAT_PLASTIC
+#include "bsdf_plastic.glsl"
+#endif
+
+// A surface that reflects nothing ends the path (e.g. the Cornell light, a pure emitter). Only a
+// black Lambertian qualifies: a black conductor still reflects at grazing angles (Schlick), a
+// black plastic still has its coat, glass is never black.
+bool material_black(Material m) {
+#if MCPT_MAT_DIFFUSE
+    return m.type == MAT_DIFFUSE && max3(m.albedo) <= 0.0;
+#else
+    return false;
+#endif
+}
+
+// Whether the material has a non-delta lobe, i.e. whether light sampling can find anything.
+bool bsdf_has_smooth(Material m) {
+#if MCPT_MAT_CONDUCTOR
+    if (m.type == MAT_CONDUCTOR) return m.alpha > 0.0;
+#endif
+#if MCPT_MAT_DIELECTRIC
+    if (m.type == MAT_DIELECTRIC) return false;
+#endif
+    return true;
+}
+
+// f |cos| of the non-delta lobes for directions wo, wi (unit), and the solid-angle pdf with
+// which bsdf_sample would produce wi. Zero when wi is below the surface (reflection only).
+vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
+#if MCPT_MAT_CONDUCTOR
+    if (m.type == MAT_CONDUCTOR) return conductor_eval(m, n, wo, wi, pdf);
+#endif
+#if MCPT_MAT_PLASTIC
+    if (m.type == MAT_PLASTIC) return plastic_eval(m, n, wo, wi, pdf);
+#endif
+#if MCPT_MAT_DIELECTRIC
+    if (m.type == MAT_DIELECTRIC) { pdf = 0.0; return vec3(0.0); }
+#endif
+#if MCPT_MAT_DIFFUSE
+    pdf = diffuse_pdf(n, wi);
+    return diffuse_eval(m.albedo, n, wi);
+#else
+    pdf = 0.0;
+    return vec3(0.0);
+#endif
+}
+
+// Sample wi given wo. `front`: wo is on the geometric front side (outside, for glass). u: two
+// uniform numbers (materials with two lobes pick the lobe with u.x and rescale it). False when
+// the sample carries nothing (the path ends).
+bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec2 u, out BsdfSample s) {
+    s.delta = false; s.transmit = false; s.eta2 = 1.0;
+#if MCPT_MAT_CONDUCTOR
+    if (m.type == MAT_CONDUCTOR) return conductor_sample(m, n, wo, u, s);
+#endif
+#if MCPT_MAT_DIELECTRIC
+    if (m.type == MAT_DIELECTRIC) return dielectric_sample(m, n, wo, front, u.x, s);
+#endif
+#if MCPT_MAT_PLASTIC
+    if (m.type == MAT_PLASTIC) return plastic_sample(m, n, wo, u, s);
+#endif
+#if MCPT_MAT_DIFFUSE
+    s.wi = sample_cosine(n, u, s.pdf);
+    s.weight = m.albedo;  // f cos / pdf for the Lambertian
+    return true;
+#else
+    return false;
+#endif
 }

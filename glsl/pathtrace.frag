@@ -9,8 +9,11 @@
 #if MCPT_NEE
 #include "lights.glsl"
 #endif
-#if MCPT_MAT_DIFFUSE
-#include "bsdf_diffuse.glsl"
+#if MCPT_SMOOTH_NORMALS
+#include "normals.glsl"
+#endif
+#if MCPT_TEXTURES
+#include "texture.glsl"
 #endif
 
 uniform ivec4 u_tile;    // x0, y0 (rows from the top), width, height of the tile being rendered
@@ -31,20 +34,45 @@ float power_heuristic(float a, float b) {
 
 // Bounce convention (scene.json): emission seen at hit k ends a path with k - 1 scattering
 // events; scattering at hit k is bounce k, allowed while k <= MCPT_BOUNCES.
+//
+// Sampling (mcpt/features.py): with MCPT_MIS, every vertex with a non-delta lobe takes one light
+// sample and one BSDF sample, weighted by the power heuristic; emission found after a delta
+// (specular) bounce, or by the camera ray, has weight 1. NEE-only (MCPT_NEE without MCPT_MIS)
+// gives the light sample weight 1 and ignores emitters found by BSDF sampling unless the previous
+// vertex was specular; BSDF-only (no MCPT_NEE) counts every emitter it hits.
+//
+// Normals: n is the triangle's geometric normal; ng is n turned to the side the path arrived
+// from, and decides ray offsets and which side a direction leaves on (a reflection must leave on
+// ng's side, a refraction on the other: with shading normals this is the light-leak check). ns,
+// the shading normal (interpolated vertex normals, else ng), is what the BSDF sees.
 vec3 radiance(Ray ray) {
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
     float pdf_bsdf_prev = 0.0;
+#if MCPT_DELTA
+    bool delta_prev = true;  // the camera ray: emitters it sees are not MIS-weighted
+#endif
+#if MCPT_MAT_DIELECTRIC && MCPT_RR
+    float eta_scale = 1.0;   // product of eta^2 crossed: roulette looks at beta * eta_scale (pbrt-v4)
+#endif
     Hit h;
     if (!trace_closest(ray, h)) return L;
     for (int k = 1; ; ++k) {
         Material m = material(tri_material(h.tri));
         vec3 n = normalize(tri_normal_raw(h.tri));
         float cos_o = dot(n, ray.d);  // < 0: the ray arrives at the front side
+#if MCPT_ABSORPTION
+        // Arriving at a dielectric's back side: the last segment ran inside it (Beer-Lambert).
+        if (m.type == MAT_DIELECTRIC && cos_o > 0.0) beta *= exp(-m.sigma_a * h.t);
+#endif
         if (cos_o < 0.0 && max(m.emission.r, max(m.emission.g, m.emission.b)) > 0.0) {
             float w = 1.0;
 #if MCPT_NEE
+  #if MCPT_DELTA
+            if (!delta_prev) {
+  #else
             if (k > 1) {
+  #endif
   #if MCPT_MIS
                 // Density with which NEE would have produced this point, as a solid angle.
                 float pdf_light = m.light_pdf_area * h.t * h.t / -cos_o;
@@ -57,13 +85,27 @@ vec3 radiance(Ray ray) {
             L += beta * m.emission * w;
         }
         if (k > MCPT_BOUNCES) break;
-        if (max(m.albedo.r, max(m.albedo.g, m.albedo.b)) <= 0.0) break;  // pure emitter, black
+        vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
+        vec3 ns = ng;
+        vec3 wo = -ray.d;
+#if MCPT_SMOOTH_NORMALS
+        if ((m.flags & MAT_FLAG_SMOOTH) != 0u) {
+            vec3 sn = normalize(shading_normal_raw(h.tri, h.bary));
+            sn = cos_o < 0.0 ? sn : -sn;
+            // Where the interpolated normal faces away from wo (silhouettes of coarse meshes) or
+            // is undefined, shade with the geometric normal.
+            if (dot(sn, wo) > 0.0) ns = sn;
+        }
+#endif
+#if MCPT_TEXTURES
+        if (m.texture >= 0) m.albedo = texture_rgb(m.texture, tri_uv(h.tri, h.bary));
+#endif
+        if (material_black(m)) break;  // pure emitter
         vec3 x = tri_point(h.tri, h.bary);
-        vec3 ns = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
-        vec3 xo = offset_ray(x, ns);
+        vec3 xo = offset_ray(x, ng);
         int dim = DIM_BOUNCE(k);
 #if MCPT_NEE
-        {
+        if (bsdf_has_smooth(m)) {
             float pmf;
             int lt = light_pick(rand_at(dim + DIM_LIGHT_PICK), pmf);
             vec2 bb = sample_triangle_bary(rand2_at(dim + DIM_LIGHT_UV));
@@ -76,7 +118,11 @@ vec3 radiance(Ray ray) {
             float dist = sqrt(d2);
             vec3 wi = dv / dist;
             float cos_l = -dot(nl, wi);
-            vec3 fc = diffuse_eval(m.albedo, ns, wi);
+            float pdf_b;
+            vec3 fc = bsdf_eval(m, ns, wo, wi, pdf_b);
+  #if MCPT_SMOOTH_NORMALS
+            if (dot(ng, wi) <= 0.0) fc = vec3(0.0);  // below the real surface: no light leaks in
+  #endif
             if (cos_l > 0.0 && max(fc.r, max(fc.g, fc.b)) > 0.0) {
                 float pdf_light = pmf * (2.0 / area2) * d2 / cos_l;
                 vec3 yo = offset_ray(y, nl);
@@ -85,26 +131,45 @@ vec3 radiance(Ray ray) {
                 if (visible(Ray(xo, seg / seg_len), seg_len)) {
                     float w = 1.0;
   #if MCPT_MIS
-                    w = power_heuristic(pdf_light, diffuse_pdf(ns, wi));
+                    w = power_heuristic(pdf_light, pdf_b);
   #endif
                     L += beta * fc * material(tri_material(lt)).emission * (w / pdf_light);
                 }
             }
         }
 #endif
-        float pdf;
-        vec3 wi = sample_cosine(ns, rand2_at(dim + DIM_BSDF_UV), pdf);
-        beta *= m.albedo;  // f cos / pdf for the Lambertian
-        pdf_bsdf_prev = pdf;
+        BsdfSample s;
+        if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) break;
+#if MCPT_SMOOTH_NORMALS || MCPT_MAT_DIELECTRIC
+        // A reflection must leave on ng's side and a refraction on the other (see above).
+        if ((dot(s.wi, ng) > 0.0) == s.transmit) break;
+#endif
+        beta *= s.weight;
+        pdf_bsdf_prev = s.pdf;
+#if MCPT_DELTA
+        delta_prev = s.delta;
+#endif
+#if MCPT_MAT_DIELECTRIC && MCPT_RR
+        eta_scale *= s.eta2;
+#endif
 #if MCPT_RR
-        // Russian roulette on the throughput (unbiased: survivors are divided by q).
+        // Russian roulette on the throughput (unbiased: survivors are divided by q). Radiance
+        // inside glass is scaled by 1/eta^2, which says nothing about the path's future: undone.
         if (k >= MCPT_RR_START) {
-            float q = min(max(beta.r, max(beta.g, beta.b)), 0.95);
+  #if MCPT_MAT_DIELECTRIC
+            vec3 rb = beta * eta_scale;
+  #else
+            vec3 rb = beta;
+  #endif
+            float q = min(max(rb.r, max(rb.g, rb.b)), 0.95);
             if (rand_at(dim + DIM_RR) >= q) break;
             beta /= q;
         }
 #endif
-        ray = Ray(xo, wi);
+#if MCPT_MAT_DIELECTRIC
+        if (s.transmit) xo = offset_ray(x, -ng);
+#endif
+        ray = Ray(xo, s.wi);
         if (!trace_closest(ray, h)) break;
     }
     return L;

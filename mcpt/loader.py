@@ -78,18 +78,15 @@ class World:
             out["nodes"] = self.bvh.gpu_nodes()
         if features.nee:
             out["lights"] = self.lights.pack()
-        # The uber-shader (--features all) may ask for buffers this scene has no data for: it
-        # never reads them (no material points at them), so one zero texel stands in.
-        if features.smooth_normals:
-            out["normals"] = pack_normals(self.normals) if self.normals is not None else _dummy()
-        if features.textures:
-            out["uvs"] = pack_uvs(self.uvs) if self.uvs is not None else _dummy()
+        # The uber-shader (--features all) declares these buffers for any scene, but reads them
+        # only for materials that have smooth normals / a texture: without such a material
+        # nothing is read, so nothing is uploaded.
+        if features.smooth_normals and self.normals is not None:
+            out["normals"] = pack_normals(self.normals)
+        if features.textures and self.textures:
+            out["uvs"] = pack_uvs(self.uvs)
             out["textures"] = pack_textures(self.textures)
         return out
-
-
-def _dummy() -> np.ndarray:
-    return np.zeros((1, 4), np.uint32)
 
 
 def octahedral_encode(n: np.ndarray) -> np.ndarray:

@@ -33,6 +33,9 @@ UNITS = {
     "materials": 4,   # material table, 2 texels each (mcpt/materials.py)
     "random": 5,      # per-pass random numbers, 1 uint each (mcpt/sampler.py)
     "probe": 6,       # test-only probe data
+    "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/loader.py)
+    "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/loader.py)
+    "textures": 9,    # albedo images: headers + sRGB texels (mcpt/textures.py)
 }
 
 

@@ -1,0 +1,51 @@
+// Conductor: a perfect mirror for alpha = 0, else a GGX microfacet BRDF (bsdf_ggx.glsl)
+//   f = F(wi.h) D(h) G2(wo, wi) / (4 cos_o cos_i)
+// with Schlick's Fresnel approximation, F = F0 + (1 - F0)(1 - cos)^5, F0 = the albedo (the
+// reflectance at normal incidence). A white conductor (F0 = 1) has F = 1: its mirror reflects
+// everything, its rough version loses only what single-scattering GGX loses (masking).
+
+vec3 fresnel_schlick(vec3 f0, float c) {
+    float m = clamp(1.0 - c, 0.0, 1.0);
+    float m2 = m * m;
+    return f0 + (1.0 - f0) * (m2 * m2 * m);
+}
+
+vec3 conductor_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
+#if MCPT_MICROFACET
+    if (m.alpha > 0.0) {
+        vec3 t, b; local_frame(n, t, b);
+        vec3 o = to_local(wo, t, b, n), i = to_local(wi, t, b, n);
+        if (o.z <= 0.0 || i.z <= 0.0) return vec3(0.0);
+        vec3 h = normalize(o + i);
+        float lo = ggx_lambda(o, m.alpha), li = ggx_lambda(i, m.alpha);
+        float d = ggx_D(h, m.alpha);
+        pdf = d / (4.0 * o.z * (1.0 + lo));
+        return fresnel_schlick(m.albedo, dot(i, h)) * (d / (4.0 * o.z * (1.0 + lo + li)));
+    }
+#endif
+    return vec3(0.0);  // a mirror has only a delta lobe
+}
+
+bool conductor_sample(Material m, vec3 n, vec3 wo, vec2 u, inout BsdfSample s) {
+#if MCPT_MICROFACET
+    if (m.alpha > 0.0) {
+        vec3 t, b; local_frame(n, t, b);
+        vec3 o = to_local(wo, t, b, n);
+        if (o.z <= 0.0) return false;
+        vec3 h = ggx_sample_vndf(o, m.alpha, u);
+        vec3 i = reflect(-o, h);
+        if (i.z <= 0.0) return false;  // reflected below the surface: masked, no energy
+        float lo = ggx_lambda(o, m.alpha), li = ggx_lambda(i, m.alpha);
+        s.wi = normalize(i.x * t + i.y * b + i.z * n);
+        s.weight = fresnel_schlick(m.albedo, dot(o, h)) * ((1.0 + lo) / (1.0 + lo + li));  // F G2 / G1
+        s.pdf = ggx_pdf_reflect(o, h, m.alpha, lo);
+        return true;
+    }
+#endif
+    s.wi = reflect(-wo, n);
+    s.weight = fresnel_schlick(m.albedo, dot(wo, n));
+    s.pdf = 0.0;
+    s.delta = true;
+    return true;
+}

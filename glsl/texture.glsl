@@ -1,0 +1,64 @@
+// Albedo textures (host side: mcpt/textures.py documents the buffer; UVs: mcpt/loader.py).
+// Texels stay sRGB-encoded, 8 bits a channel; each of the four taps of a bilinear lookup is
+// decoded to linear RGB before the interpolation, as a GPU's sRGB texture does.
+layout(binding = 8) uniform usamplerBuffer u_uvs;       // 2 texels per triangle (BVH order)
+layout(binding = 9) uniform usamplerBuffer u_textures;  // headers, then 4 pixels per texel
+
+vec2 tri_uv(int tri, vec2 bary) {
+    vec4 a = uintBitsToFloat(texelFetch(u_uvs, 2 * tri));
+    vec2 c = uintBitsToFloat(texelFetch(u_uvs, 2 * tri + 1).xy);
+    return (1.0 - bary.x - bary.y) * a.xy + bary.x * a.zw + bary.y * c;
+}
+
+// The exact sRGB decoding curve (IEC 61966-2-1).
+vec3 srgb_decode(uint p) {
+    vec3 c = vec3(uvec3(p, p >> 8, p >> 16) & 0xffu) * (1.0 / 255.0);
+    vec3 lo = c * (1.0 / 12.92);
+    vec3 hi = pow((c + 0.055) * (1.0 / 1.055), vec3(2.4));
+    return mix(hi, lo, lessThanEqual(c, vec3(0.04045)));
+}
+
+// Integer texel coordinate under the wrap mode (0 repeat, 1 clamp, 2 mirror).
+int tex_wrap(int i, int n, uint mode) {
+    if (mode == 1u) return clamp(i, 0, n - 1);
+    if (mode == 2u) {
+        int p = i % (2 * n); p = p < 0 ? p + 2 * n : p;
+        return p < n ? p : 2 * n - 1 - p;
+    }
+    int p = i % n;
+    return p < 0 ? p + n : p;
+}
+
+// A texture coordinate folded into one period first, so huge UVs keep their precision in the
+// fraction and the integer texel index cannot overflow.
+float tex_reduce(float u, uint mode) {
+    if (mode == 1u) return clamp(u, 0.0, 1.0);
+    if (mode == 2u) return u - 2.0 * floor(0.5 * u);
+    return u - floor(u);
+}
+
+vec3 tex_pixel(uvec4 hdr, int x, int y) {
+    int i = y * int(hdr.y) + x;
+    uvec4 q = texelFetch(u_textures, int(hdr.x) + (i >> 2));
+    return srgb_decode(q[i & 3]);
+}
+
+// Linear RGB of texture `id` at (u, v); v points up (row 0 of the buffer is the image's bottom).
+vec3 texture_rgb(int id, vec2 uv) {
+    uvec4 hdr = texelFetch(u_textures, id);
+    int w = int(hdr.y), h = int(hdr.z);
+    uint mode = hdr.w & 3u;
+    vec2 st = vec2(tex_reduce(uv.x, mode), tex_reduce(uv.y, mode)) * vec2(w, h);
+    if ((hdr.w & 4u) != 0u) {  // nearest
+        return tex_pixel(hdr, tex_wrap(int(floor(st.x)), w, mode), tex_wrap(int(floor(st.y)), h, mode));
+    }
+    st -= 0.5;
+    vec2 f = floor(st);
+    vec2 t = st - f;
+    int x0 = int(f.x), y0 = int(f.y);
+    int xa = tex_wrap(x0, w, mode), xb = tex_wrap(x0 + 1, w, mode);
+    int ya = tex_wrap(y0, h, mode), yb = tex_wrap(y0 + 1, h, mode);
+    vec3 bot = mix(tex_pixel(hdr, xa, ya), tex_pixel(hdr, xb, ya), t.x);
+    vec3 top = mix(tex_pixel(hdr, xa, yb), tex_pixel(hdr, xb, yb), t.x);
+    return mix(bot, top, t.y);
+}
