@@ -18,15 +18,16 @@ vec3 srgb_decode(uint p) {
     return mix(hi, lo, lessThanEqual(c, vec3(0.04045)));
 }
 
-// Integer texel coordinate under the wrap mode (0 repeat, 1 clamp, 2 mirror).
+// Integer texel coordinate under the wrap mode (0 repeat, 1 clamp, 2 mirror), for i in
+// [-1, 2n]: the coordinate was folded into one period first (tex_reduce). No `%`: GLSL leaves
+// it undefined for negative operands.
 int tex_wrap(int i, int n, uint mode) {
     if (mode == 1u) return clamp(i, 0, n - 1);
     if (mode == 2u) {
-        int p = i % (2 * n); p = p < 0 ? p + 2 * n : p;
+        int p = i < 0 ? i + 2 * n : (i >= 2 * n ? i - 2 * n : i);
         return p < n ? p : 2 * n - 1 - p;
     }
-    int p = i % n;
-    return p < 0 ? p + n : p;
+    return i < 0 ? i + n : (i >= n ? i - n : i);
 }
 
 // A texture coordinate folded into one period first, so huge UVs keep their precision in the
