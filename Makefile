@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 SCENE ?= scenes/cornell-box.yaml
 
-.PHONY: all setup system-deps render test test-osmesa bench stability wheel clean
+.PHONY: all setup system-deps render test test-osmesa bench stability goldens wheel clean
 
 all: test
 
@@ -39,6 +39,16 @@ test-osmesa: setup
 
 bench: setup
 	$(PY) bench/run.py --quick
+
+# Issue #6: the stability suite as a table (case, expected, measured, pass/fail); the same cases
+# run in CI as tests/test_stability.py. GL_BACKEND=osmesa to run it on OSMesa.
+stability: setup
+	$(PY) bench/stability.py $(if $(GL_BACKEND),--gl-backend $(GL_BACKEND))
+
+# Regenerate the golden images of tests/test_golden.py (reference mean + per-sample variance,
+# ~2 min on llvmpipe); commit tests/golden/*.npz afterwards.
+goldens: setup
+	$(PY) -m mcpt.golden
 
 wheel: setup
 	$(PY) -m pip wheel --no-deps -w dist .
