@@ -1,0 +1,57 @@
+"""Leave out what a scene does not need (issue #4): info JSON, data diet, specialised == uber."""
+
+import json
+
+import numpy as np
+from click.testing import CliRunner
+
+from cli.main import main
+from mcpt.api import prepare
+from mcpt.scene import load_scene
+
+from .conftest import ROOT
+
+CORNELL = ROOT / "scenes" / "cornell-box.yaml"
+
+
+def test_info_json_reports_counts_features_buffers_and_limits():
+    result = CliRunner().invoke(main, ["info", str(CORNELL), "--json", "--bounces", "3"])
+    assert result.exit_code == 0, result.output
+    info = json.loads(result.output)
+    assert info["counts"]["triangles"] == 36
+    assert info["counts"]["emissive_triangles"] == 2
+    assert info["bvh"]["nodes"] >= 1 and info["bvh"]["depth"] >= 1
+    assert info["features"]["defines"]["MCPT_BOUNCES"] == 3
+    buffers = info["buffers"]
+    assert buffers["tris"] == 36 * 3 * 16  # 3 RGBA32UI texels per triangle
+    # Random numbers are sized by the dimensions this bounce count uses.
+    dims = info["features"]["defines"]["MCPT_RAND_DIMS"]
+    assert buffers["random_per_pass"] == 256 * 256 * dims * 4
+    assert info["gl"]["max_texture_buffer_size"] >= 65536
+    # A diffuse-only, flat-shaded scene uploads no normals and no UVs.
+    assert not {"normals", "uvs", "texels"} & set(buffers)
+
+
+def test_fewer_bounces_need_fewer_random_numbers():
+    a = prepare(CORNELL, bounces=1, resolution=(16, 16))
+    b = prepare(CORNELL, bounces=8, resolution=(16, 16))
+    try:
+        assert a.features.random_dims < b.features.random_dims
+        assert a.renderer.setup["random_bytes_per_pass"] < b.renderer.setup["random_bytes_per_pass"]
+    finally:
+        a.renderer.release()
+        b.renderer.release()
+
+
+def test_specialised_and_uber_shader_images_agree_within_noise():
+    scene = load_scene(CORNELL).with_overrides(resolution=(48, 48))
+    images = []
+    for mode in ("scene", "all"):
+        p = prepare(scene, features_mode=mode, feature_flags={"variance": True})
+        res = p.renderer.render(16, seed=3)
+        images.append((res.image.astype(np.float64), res.variance.astype(np.float64)))
+        p.renderer.release()
+    (a, va), (b, vb) = images
+    z = np.abs(a - b) / np.sqrt(np.maximum(va + vb, 1e-8))
+    assert z.max() < 5.5
+    np.testing.assert_allclose(a.mean(), b.mean(), rtol=0.02)
