@@ -31,9 +31,9 @@ def section_throughput(d: dict) -> list[str]:
          f"{st['repeats']} run(s), scene and uber-shader runs interleaved. Set-up is excluded from "
          "paths/s and listed apart. Compile figures come from a fresh process with Mesa's disk "
          "shader cache off (bench/compile_probe.py); in a warm process both are near zero.", "",
-         "| scene | triangles | Mpaths/s specialised | Mpaths/s `--features all` | ratio | Mpaths/CPU-s (spec / all) | compile s, cold (spec / all) "
+         "| scene | triangles | Mpaths/s specialised | Mpaths/s `--features all` | ratio | Mpaths/CPU-s (spec / all) | ratio (CPU-s) | compile s, cold (spec / all) "
          "| first-draw JIT s, cold (spec / all) | upload bytes (spec / all) | set-up s | random numbers, share of render |",
-         "|---|---:|---:|---:|---:|---|---|---|---|---:|---:|"]
+         "|---|---:|---:|---:|---:|---|---:|---|---|---|---:|---:|"]
     M = 1e-6
     for name, s in sm["scenes"].items():
         pps, ppa = s.get("paths_per_second"), s.get("paths_per_second_all")
@@ -42,6 +42,7 @@ def section_throughput(d: dict) -> list[str]:
         L.append(f"| {name} | {_f(s['triangles'], ',d')} | {_f(pps and pps * M, '.3f')} | "
                  f"{_f(ppa and ppa * M, '.3f', 'failed')} | {_f(s.get('speedup_scene_vs_all'), '.2f')}x | "
                  f"{_f(cpu.get('scene') and cpu['scene'] * M, '.3f')} / {_f(cpu.get('all') and cpu['all'] * M, '.3f')} | "
+                 f"{_f(s.get('speedup_scene_vs_all_cpu'), '.2f')}x | "
                  f"{_f(cc.get('scene'), '.3f')} / {_f(cc.get('all'), '.3f')} | "
                  f"{_f(cj.get('scene'), '.3f')} / {_f(cj.get('all'), '.3f')} | "
                  f"{_f(ub.get('scene'), ',d')} / {_f(ub.get('all'), ',d')} | "

@@ -461,6 +461,9 @@ def _throughput_summary(per: dict, failed: dict, cold: dict, images: dict) -> di
         "paths_per_second": per["scene"]["paths_per_second"] if "scene" in per else None,
         "paths_per_second_all": per["all"]["paths_per_second"] if "all" in per else None,
         "paths_per_cpu_second": both(lambda r: r["paths_per_cpu_second"]),
+        # the CPU-second ratio is the steadier one when other work shares the cores
+        "speedup_scene_vs_all_cpu": (per["scene"]["paths_per_cpu_second"] / per["all"]["paths_per_cpu_second"]
+                                     if len(per) == 2 else None),
         "speedup_scene_vs_all": (per["scene"]["paths_per_second"] / per["all"]["paths_per_second"]
                                  if len(per) == 2 else None),
         "compile_seconds_warm": both(lambda r: r["setup"]["compile_seconds"]),
