@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 
 import click
@@ -16,6 +17,21 @@ def parse_resolution(ctx, param, value):
     if not m:
         raise click.BadParameter(f"{value!r} is not WIDTHxHEIGHT (e.g. 256x256)")
     return int(m.group(1)), int(m.group(2))
+
+
+def finite(ctx, param, value):
+    """A float option that must be a finite number (click's float accepts 'nan' and 'inf')."""
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"{value} is not a finite number")
+    return value
+
+
+def positive_finite(ctx, param, value):
+    """A finite float option > 0 (e.g. --clamp: 0 or less would zero or negate radiance)."""
+    value = finite(ctx, param, value)
+    if value is not None and not value > 0:
+        raise click.BadParameter(f"{value} must be greater than 0")
+    return value
 
 
 def render_options(fn):

@@ -11,7 +11,7 @@ import click
 from mcpt import __version__
 
 from .main import main, reports_errors
-from .options import render_options
+from .options import finite, positive_finite, render_options
 
 
 class Progress:
@@ -40,8 +40,9 @@ class Progress:
 @click.option("-o", "--output", "outputs", multiple=True, default=["out/render.exr"], show_default=True,
               help="Output image; the format follows the extension (.exr linear float, .png sRGB "
                    "8-bit). Repeat to write several files from one render.")
-@click.option("--exposure", type=float, default=0.0, show_default=True, help="PNG only: exposure in stops.")
-@click.option("--clamp", type=float, default=None,
+@click.option("--exposure", type=float, default=0.0, show_default=True, callback=finite,
+              help="PNG only: exposure in stops.")
+@click.option("--clamp", type=float, default=None, callback=positive_finite,
               help="BIASED: clamp each sample's largest component to this value (off by default).")
 @click.option("--json", "as_json", is_flag=True, help="Print the render summary as JSON on stdout.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")

@@ -46,12 +46,31 @@ def to_srgb8(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     return np.round(v * 255.0).astype(np.uint8)
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def _atomic(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent or ".")
+    """Write through a temporary file in the same folder, renamed over ``path`` when complete:
+    a failure (disk full, Ctrl-C, a writer error) leaves neither a partial image nor a temporary
+    file, and an image already at ``path`` untouched."""
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+    except OSError as exc:
+        raise ImageError(f"{path}: cannot write in {folder}: {exc.strerror or exc}") from None
     os.close(fd)
     try:
-        write(tmp)
-        os.replace(tmp, path)
+        try:
+            write(tmp)
+            # mkstemp makes the file private (0600); give the image the usual permissions.
+            os.chmod(tmp, 0o666 & ~_umask())
+            os.replace(tmp, path)
+        except (OSError, RuntimeError) as exc:  # OpenEXR reports I/O failures as RuntimeError
+            raise ImageError(f"{path}: cannot write the image: "
+                             f"{' '.join((getattr(exc, 'strerror', None) or str(exc)).split())}") from None
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)

@@ -748,7 +748,7 @@ def _zero_area(env: Env) -> Outcome:
 def _collapsed_emitter(env: Env) -> Outcome:
     """An emitter of size 1e-9 at distance ~4 from the camera: valid in float64, but its float32
     corners coincide after the upload. It must become no light and leave the image unchanged."""
-    # assimp reads OBJ coordinates as float32, so the tiny size comes from the (float64) transform.
+    # The tiny size comes from the (float64) YAML transform.
     v, f = _small_emitter((0.0, 0.0, 0.0), 1.0)
     path = write_obj(env.file("emitter-collapsed.obj"), v, f)
     mat = {"hot": {"albedo": [0, 0, 0], "emission": [1e6, 1e6, 1e6]}}
@@ -845,17 +845,11 @@ _cluster_case(10000)
 _cluster_case(100_000, known=_cluster_known)
 
 
-def _obj_offset_known(env: Env) -> str | None:
-    return ("assimp-py parses OBJ coordinates as float32 (ai_real), so coordinates near 1e5 are "
-            "rounded to 1/128 before mcpt's float64 rebasing can help: the box's corners move by up to"
-            " 4e-3. Fix (mcpt/mesh.py): read OBJ 'v' lines in float64 ourselves (numpy) and use them "
-            "instead of assimp's, or ask for an assimp build with ASSIMP_DOUBLE_PRECISION; until "
-            "then, place far-away meshes with the YAML transform (float64)")
-
-
-@case("cornell-offset-1e5-in-obj-files", "offset", known=_obj_offset_known)
+@case("cornell-offset-1e5-in-obj-files", "offset")
 def _offset_in_files(env: Env) -> Outcome:
-    """The Cornell box with 1e5 added to every coordinate IN the OBJ files (camera moved too)."""
+    """The Cornell box with 1e5 added to every coordinate IN the OBJ files (camera moved too).
+    Assimp parses OBJ coordinates as float32 (1/128 steps at 1e5); mcpt/mesh.py reads them back
+    in float64 so the camera-relative rebasing can keep them."""
     from .mesh import load_mesh
     import yaml
 
