@@ -30,7 +30,7 @@ def main(argv=None) -> int:
     ap.add_argument("--gl-backend", default=None, help="egl or osmesa (default: $MCPT_GL_BACKEND)")
     ap.add_argument("--only", nargs="*", default=[], help="run cases whose name or group contains TEXT")
     ap.add_argument("--json", default=None, help="also write the rows as JSON to this file")
-    ap.add_argument("--width", type=int, default=60, help="wrap expected/measured at this width")
+    ap.add_argument("--width", type=int, default=46, help="wrap expected/measured at this width")
     args = ap.parse_args(argv)
 
     cases = [c for c in stability.CASES

@@ -300,10 +300,12 @@ def _loop_limit_known(env: Env) -> str | None:
     if not env.llvmpipe:
         return None
     return ("llvmpipe stops every shader loop after 65535 back-edges per pixel (all loops together),"
-            " so paths deeper than ~90 bounces in this sphere are silently cut short. Fix: count "
-            "loop iterations in glsl/bvh.glsl + glsl/pathtrace.frag and drop-and-count a sample "
-            "that reaches the budget (alpha channel, like non-finite ones), and continue deep "
-            "paths across several draws (path state in textures) instead of one fragment")
+            " so paths deeper than ~90 bounces in this sphere are silently cut short. Fix, to detect:"
+            " a global `int g_budget = MCPT_LOOP_BUDGET` (60000 on llvmpipe, else 2^30) decremented"
+            " in each loop of glsl/bvh.glsl and in the bounce loop, `g_truncated = true; break;` at"
+            " 0, and in glsl/pathtrace.frag main() `o_color = (non_finite(L) || g_truncated) ?"
+            " vec4(0, 0, 0, 1) : vec4(L, 0)` so such samples are dropped and counted; to fix: "
+            "continue deep paths over several draws (path state in textures)")
 
 
 _furnace_case("furnace-a0.5-b8", 0.5, 8, spp=64)
@@ -798,8 +800,9 @@ def _cluster_known(env: Env) -> str | None:
         return None
     return ("every box of the cluster contains the common centroid, so a ray near it must visit "
             "~all leaves (10^4-10^5 loop iterations); llvmpipe ends all loops of a pixel after 65535 "
-            "iterations and the traversal stops early, silently: rays pass through. Fix: as for "
-            "furnace-a1-b300-no-rr (count iterations, drop and count truncated samples)")
+            "iterations, the traversal stops before it reaches the wall behind, and those pixels "
+            "come out black, silently. Fix: as for furnace-a1-b300-no-rr (count iterations, drop "
+            "and count truncated samples); a real GPU has no such limit")
 
 
 def _cluster_case(n: int, known=None):
