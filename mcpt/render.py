@@ -13,6 +13,7 @@ would kill a draw that runs for seconds.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -64,6 +65,23 @@ def plan_tiles(width: int, height: int, dims: int, limit_texels: int,
     return [(0, y, width, min(rows, height - y)) for y in range(0, height, rows)]
 
 
+def host_bytes(width: int, height: int, targets: int) -> int:
+    """Host memory the accumulation needs: a float64 RGBA sum per target plus one float32 read-back."""
+    return width * height * 4 * targets * (8 + 4)
+
+
+def check_host_memory(width: int, height: int, targets: int) -> None:
+    """Refuse, before allocating, an image whose accumulation would not fit in physical memory."""
+    need = host_bytes(width, height, targets)
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return
+    if need > 0.5 * total:
+        raise RenderError(f"{width}x{height} needs {need / 2**30:.1f} GiB of host memory for "
+                          f"accumulation, more than half of the {total / 2**30:.1f} GiB here")
+
+
 class Renderer:
     """A compiled program and the uploaded scene, ready to render passes."""
 
@@ -84,6 +102,11 @@ class Renderer:
                     "lights": "emissive triangles"}[name]
             self.tbos[name] = create_tbo(gl, name, arr, per_item=per, item=item)
         limits = gl.limits()
+        cap = min(limits["max_texture_size"], *limits["max_viewport_dims"])
+        if self.width > cap or self.height > cap:
+            raise RenderError(f"{self.width}x{self.height} exceeds GL_MAX_TEXTURE_SIZE / "
+                              f"GL_MAX_VIEWPORT_DIMS = {cap} on {gl.renderer}; lower --resolution")
+        check_host_memory(self.width, self.height, 2 if features.variance else 1)
         self.tiles = plan_tiles(self.width, self.height, features.random_dims,
                                 limits["max_texture_buffer_size"], max_random_per_tile)
         tile_pixels = max(w * h for _, _, w, h in self.tiles)

@@ -974,16 +974,7 @@ def _resolution_scene(env: Env) -> Outcome:
                        "resolution" in msg and str(MAX_RESOLUTION) in msg)
 
 
-def _gl_size_known(env: Env) -> str | None:
-    return ("Renderer allocates full-image RGBA32F targets and draws with a full viewport without "
-            "checking GL_MAX_TEXTURE_SIZE / GL_MAX_VIEWPORT_DIMS (the scene allows 16384, many GPUs "
-            "less). Fix (mcpt/render.py Renderer.__init__, after `limits = gl.limits()`): "
-            "`cap = min(limits['max_texture_size'], *limits['max_viewport_dims'])`; if width or "
-            "height > cap: raise RenderError(f'{width}x{height} exceeds GL_MAX_TEXTURE_SIZE / "
-            "GL_MAX_VIEWPORT_DIMS = {cap} on {gl.renderer}; lower --resolution')")
-
-
-@case("resolution-over-gl-limit", "limits", known=_gl_size_known)
+@case("resolution-over-gl-limit", "limits")
 def _resolution_gl(env: Env) -> Outcome:
     """A 64x64 image on a GPU whose textures and viewport stop at 32: refused with the limit."""
     from .api import prepare
