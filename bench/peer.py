@@ -44,6 +44,8 @@ def error_figures(thresholds=(1e-2, 1e-3)) -> dict:
             "paths_per_second": [r["paths_per_s"] for r in rows],
             "fit_relmse_vs_seconds": fit.as_dict(),
             "time_to_relmse": [common.time_to_threshold(t, rel, thr, fit) for thr in thresholds],
+            "cpu_time_to_relmse": [common.time_to_threshold([r["median_cpu_s"] for r in rows], rel, thr)
+                                   for thr in thresholds],
         }
     return out
 

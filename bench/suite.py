@@ -57,7 +57,8 @@ def run(names, cfg: sweeps.Config, log=print, argv=None) -> dict:
             continue
         if err_file.exists():
             err_file.unlink()
-        m = {**meta, "loadavg_1min": common.loadavg(), "sweep_seconds": time.perf_counter() - t0}
+        m = {**meta, "time_utc": common.run_meta(meta["gl"], argv)["time_utc"],
+             "loadavg_1min": common.loadavg(), "sweep_seconds": time.perf_counter() - t0}
         files.append(common.write_records(out, name, m, res["settings"], res["records"], res["summary"]))
         files += plots.PLOTS[name](res, out, m)
         done.append(name)

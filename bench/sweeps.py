@@ -379,6 +379,12 @@ def error_summary(records: list[dict]) -> dict:
         out["time_to_relmse"] = [common.time_to_threshold(t, rel, thr, fit_t) for thr in THRESHOLDS]
         out["spp_to_relmse"] = [common.time_to_threshold(spp, rel, thr) for thr in THRESHOLDS]
         out["slope_within_0.15_of_minus_1"] = abs(fit_t.slope + 1.0) <= 0.15
+        # CPU seconds (both llvmpipe threads): steadier than wall time on a shared machine, and
+        # comparable with the peer study's CPU seconds
+        cpu = [r["cpu_seconds"] for r in records]
+        fit_c = common.fit_power(cpu, rel)
+        out["fit_relmse_vs_cpu_seconds"] = fit_c.as_dict()
+        out["cpu_time_to_relmse"] = [common.time_to_threshold(cpu, rel, thr, fit_c) for thr in THRESHOLDS]
     out["relmse_x_spp"] = [r["relmse_x_spp"] for r in records]
     out["paths_per_second_median"] = statistics.median(r["paths_per_second"] for r in records)
     return out
