@@ -151,11 +151,13 @@ Albedo = Annotated[
     _fixed_list(3),
 ]
 #: Linear RGB radiance, each channel >= 0.
+# Radiance is uploaded as float32: a larger value would become inf on the GPU.
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 Radiance = Annotated[
     tuple[
-        Annotated[float, Field(ge=0.0)],
-        Annotated[float, Field(ge=0.0)],
-        Annotated[float, Field(ge=0.0)],
+        Annotated[float, Field(ge=0.0, le=_FLOAT32_MAX)],
+        Annotated[float, Field(ge=0.0, le=_FLOAT32_MAX)],
+        Annotated[float, Field(ge=0.0, le=_FLOAT32_MAX)],
     ],
     _fixed_list(3),
 ]
@@ -632,6 +634,9 @@ class _SceneLoader(yaml.SafeLoader):
                 if key_node.tag == "tag:yaml.org,2002:merge":  # "<<: *base" — own keys win
                     merges.append(value_node)
                     continue
+                if key_node.tag == "tag:yaml.org,2002:bool" and key_node.style is None:
+                    # YAML 1.1 reads a plain `on:`/`yes:` key as True; every key here is a name.
+                    key_node.tag = "tag:yaml.org,2002:str"
                 key = self._key_text(key_node)
                 line = key_node.start_mark.line + 1
                 ident = (key_node.tag, key)  # "spp" and spp are the same key; 1 and "1" are not
