@@ -9,6 +9,14 @@ texture, ``D = features.random_dims``)::
     dim 2 + 6 (k - 1) + ...  bounce k = 1..bounces:
         + 0 light choice,  + 1, + 2 point on the light,  + 3, + 4 BSDF direction,  + 5 roulette
 
+The same six numbers serve every material (glsl/materials.glsl), so no material feature adds
+dimensions: a vertex without a light sample (mirror, glass) leaves + 0..2 unread; glass picks
+reflection or refraction with + 3 (its directions are fixed); plastic picks its lobe with + 3 and
+rescales it to [0, 1) for the diffuse direction ((u - p) / (1 - p) is uniform given u >= p: the
+"sample reuse" of pbrt-v4), which costs a few of the 24 bits, far below what a direction needs.
+Because the layout does not depend on the sampling mode either, NEE-only, BSDF-only and MIS
+renders with one seed draw the same BSDF directions (the tests compare their variances that way).
+
 so a pixel reads only its own ``D`` numbers, each dimension of its path gets its own number, and
 no two pixels or bounces share one. Dimension-major order makes neighbouring pixels, shaded side by
 side in one SIMD batch (llvmpipe) or warp (GPU), read neighbouring addresses. Pass ``p`` of tile ``t`` draws from its own PCG64
