@@ -169,3 +169,29 @@ def test_mis_beats_light_and_bsdf_sampling_on_the_glossy_scene(gl):
         assert var["mis"][region].sum() < 1.1 * min(var["nee"][region].sum(), var["bsdf"][region].sum())
     for a, b in (("mis", "nee"), ("mis", "bsdf")):
         assert agree(out[a], out[b], spp)[2] < 4.0
+
+
+def test_absorbing_glass_transmits_beer_lambert(gl):
+    """Rays through the centre of an absorbing glass ball (radius 0.1) in a uniform emitter: at
+    normal incidence F = ((n - 1) / (n + 1))^2 and each crossing keeps T = color (the absorption
+    distance is the diameter), so L = F + (1 - F)^2 T / (1 - F T) (light bouncing inside adds the
+    geometric series)."""
+    text = f"""
+camera: {{position: [0, 0, 0.95], look_at: [0, 0, 0], vfov_deg: 0.4, resolution: [16, 16]}}
+render: {{bounces: 32}}
+materials:
+  enclosure: {{albedo: [0, 0, 0], emission: [1, 1, 1]}}
+  glass: {{type: dielectric, ior: 1.5, smooth_normals: true,
+          absorption: {{color: [0.5, 0.7, 0.9], distance: 0.2}}}}
+meshes:
+  - {{file: furnace/sphere_inward.obj, material: enclosure}}
+  - {{file: models/icosphere.obj, material: glass, transform: {{scale: 0.1}}}}
+"""
+    res, f = render(gl, parse_scene(text, SCENES / "inline.yaml"), 256, 5)
+    assert f.absorption
+    F = (0.5 / 2.5) ** 2
+    T = np.array([0.5, 0.7, 0.9])
+    want = F + (1 - F) ** 2 * T / (1 - F * T)
+    got = res.image.reshape(-1, 3).astype(np.float64).mean(axis=0)
+    se = np.sqrt(res.variance.reshape(-1, 3).astype(np.float64).sum(axis=0)) / (res.image.size / 3)
+    assert np.all(np.abs(got - want) < 4 * se + 1e-3), (got, want, se)
