@@ -32,6 +32,11 @@ from .tbo import GL_R32F, create_tbo
 MAX_RANDOM_PER_TILE = 1 << 26
 
 
+# Texels per item of each buffer, so a size error can say how many items would fit.
+_ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
+          "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+
+
 class RenderError(RuntimeError):
     pass
 
@@ -97,9 +102,9 @@ class Renderer:
         t1 = time.perf_counter()
         self.tbos = {}
         for name, arr in world.buffers(features).items():
-            per = {"tris": 3, "nodes": 2, "materials": 2, "lights": 1}[name]
-            item = {"tris": "triangles", "nodes": "BVH nodes", "materials": "materials",
-                    "lights": "emissive triangles"}[name]
+            per, item = _ITEMS.get(name, (1, "texels"))
+            if name == "materials":
+                per = features.material_texels
             self.tbos[name] = create_tbo(gl, name, arr, per_item=per, item=item)
         limits = gl.limits()
         cap = min(limits["max_texture_size"], *limits["max_viewport_dims"])

@@ -2,7 +2,10 @@
 
 A program is assembled from files under ``glsl/``: ``#version`` first, then the feature preamble
 (every define emitted as 0/1 or a number, see :mod:`mcpt.features`), then the entry file with its
-``#include "x.glsl"`` lines expanded in place. Each file gets a GLSL source-string number and every
+``#include "x.glsl"`` lines expanded in place. Conditionals made only of ``MCPT_*`` defines are
+resolved here, so code a scene does not use (and the files it would include) never even reaches
+the driver: the source of a diffuse-only scene holds no glass or metal code. Skipped lines become
+blank lines, which keeps every line number right. Each file gets a GLSL source-string number and every
 chunk is preceded by ``#line N SOURCE``, so a compiler message such as ``3:42(7): error`` can be
 translated back to ``bvh.glsl:42``. Compiled programs are cached by (entry files, feature key).
 """
@@ -16,6 +19,9 @@ from pathlib import Path
 
 GLSL_VERSION = "#version 430 core"  # layout(binding=N) needs 4.20; 4.30 for std430-era built-ins
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
+_DEFINE = re.compile(r"^#define\s+(MCPT_\w+)\s+(-?\d+)\s*$", re.M)
+_DIRECTIVE = re.compile(r"^\s*#\s*(if|ifdef|ifndef|elif|else|endif)\b\s*(.*?)\s*(?://.*)?$")
+_GUARD = re.compile(r"^[\sA-Z0-9_()!&|<>=]*$")
 
 
 class ShaderError(RuntimeError):
@@ -47,6 +53,7 @@ class Source:
     def __init__(self, entry: str, preamble: str):
         self.files: list[str] = ["<preamble>"]
         self._seen: set[str] = set()
+        self._defines = {k: int(v) for k, v in _DEFINE.findall(preamble)}
         body = self._expand(entry)
         self.text = f"{GLSL_VERSION}\n#line 1 0\n{preamble}\n{body}"
 
@@ -57,14 +64,75 @@ class Source:
         self.files.append(name)
         sid = len(self.files) - 1
         out = [f"#line 1 {sid}"]
+        # One frame per open #if: known = decided here from the preamble (its directive lines are
+        # dropped, only the live branch stays); otherwise the driver decides (lines kept as is).
+        frames: list[dict] = []
+
+        def live() -> bool:
+            return all(not f["dead"] and (not f["known"] or f["active"]) for f in frames)
+
         for lineno, line in enumerate(_read(name).splitlines(), start=1):
+            d = _DIRECTIVE.match(line)
+            if d:
+                out.append(self._directive(d.group(1), d.group(2), frames, live, line, name, lineno))
+                continue
             m = _INCLUDE.match(line)
-            if m:
+            if not live():
+                out.append("")
+            elif m:
                 out.append(self._expand(m.group(1)))
                 out.append(f"#line {lineno + 1} {sid}")
             else:
                 out.append(line)
         return "\n".join(out)
+
+    def _directive(self, kind, expr, frames, live, line, name, lineno) -> str:
+        if kind in ("if", "ifdef", "ifndef"):
+            if not live():
+                frames.append({"dead": True, "known": False, "active": False, "taken": False})
+                return ""
+            if kind == "if":
+                value = self._evaluate(expr)
+            elif expr.startswith("MCPT_"):
+                value = (expr in self._defines) == (kind == "ifdef")
+            else:
+                value = None
+            frames.append({"dead": False, "known": value is not None, "active": bool(value),
+                           "taken": bool(value)})
+            return "" if value is not None else line
+        if not frames:
+            raise ShaderError(f"{name}:{lineno}: #{kind} without #if")
+        f = frames[-1]
+        if kind == "endif":
+            frames.pop()
+            return line if not f["dead"] and not f["known"] else ""
+        if f["dead"]:
+            return ""
+        if not f["known"]:
+            return line
+        if kind == "else":
+            f["active"], f["taken"] = not f["taken"], True
+        else:  # elif
+            value = False if f["taken"] else self._evaluate(expr)
+            if value is None:
+                raise ShaderError(f"{name}:{lineno}: #elif must test MCPT_ defines like its #if")
+            f["active"] = value
+            f["taken"] = f["taken"] or value
+        return ""
+
+    def _evaluate(self, expr: str) -> bool | None:
+        """A guard of MCPT_ defines, integers, ! && || == != < > and parentheses, evaluated with
+        the preamble's values; None (leave it to the driver) for anything else."""
+        if not _GUARD.match(expr):
+            return None
+        names = set(re.findall(r"[A-Z_][A-Z0-9_]*", expr))
+        if not names or not names <= set(self._defines):
+            return None
+        py = re.sub(r"!(?!=)", " not ", expr.replace("&&", " and ").replace("||", " or "))
+        try:
+            return bool(eval(py, {"__builtins__": {}}, dict(self._defines)))  # noqa: S307 - names checked
+        except Exception:  # malformed guard: let the GLSL compiler report it
+            return None
 
     def translate(self, log: str) -> str:
         """Rewrite ``SID:LINE(COL)`` (Mesa) and ``SID(LINE)`` (NVIDIA) into ``file:LINE``."""

@@ -27,11 +27,11 @@ GL_R32F = 0x822E
 # Texture unit of every buffer the shaders read; the GLSL side uses the same numbers
 # (glsl/*.glsl `layout(binding = N)`), checked by tests/test_shader.py.
 UNITS = {
-    "nodes": 1,       # BVH nodes, 2 texels each (mcpt/bvh.py)
-    "tris": 2,        # triangle vertices, 3 texels each (mcpt/geometry.py)
-    "lights": 3,      # emissive triangle table, 2 texels each (mcpt/lights.py)
-    "materials": 4,   # material table, 2 texels each (mcpt/materials.py)
-    "random": 5,      # per-pass random numbers, 1 uint each (mcpt/sampler.py)
+    "nodes": 1,       # BVH interior nodes, 4 texels each (mcpt/bvh.py BVH.gpu_nodes)
+    "tris": 2,        # triangle vertices, 3 texels each (mcpt/loader.py pack_triangles)
+    "lights": 3,      # emissive triangle table, 1 texel each (mcpt/lights.py)
+    "materials": 4,   # material table, 2 or 4 texels each (mcpt/materials.py)
+    "random": 5,      # per-pass random numbers, 1 float each (mcpt/sampler.py)
     "probe": 6,       # test-only probe data
     "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/loader.py)
     "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/loader.py)
