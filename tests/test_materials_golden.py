@@ -2,10 +2,8 @@
 (mcpt/golden.py: per-pixel z-test against a reference mean and per-sample variance, Sidak-
 corrected, >= 99.75 % of pixel-channels must accept, image mean within 4 standard errors).
 
-The specs live here rather than in mcpt.golden.GOLDENS because these scenes need buffers
-(normals, UVs, textures) that mcpt/render.py does not upload by name yet; ``renderer`` in
-test_materials_util.py uploads them. The files have golden.py's format, so moving the specs into
-GOLDENS later lets ``make goldens`` regenerate them too. Regenerate them here with
+The specs live here rather than in mcpt.golden.GOLDENS because two of them clamp (below), which
+golden.render_spec does not do; the files have golden.py's format. Regenerate them with
 
     MCPT_UPDATE_GOLDEN=1 .venv/bin/python -m pytest -q tests/test_materials_golden.py
 

@@ -3,7 +3,7 @@
 * :func:`probe` runs glsl/probe_sample.frag: one real GLSL sampling / evaluation routine per item.
 * :func:`chi2_test`: the pbrt-v4 / Mitsuba 3 goodness-of-fit test (pool cells expected < 5,
   p-value from the regularised incomplete gamma function; scipy is not a dependency).
-* :func:`renderer`: a Renderer for a world, uploading every buffer the features ask for.
+* :func:`renderer`: a Renderer for a world and explicit features.
 """
 
 from __future__ import annotations
@@ -154,29 +154,7 @@ def sphere_histogram(w: np.ndarray, n_theta: int, n_phi: int) -> np.ndarray:
 
 
 def renderer(gl, world, features):
-    """A Renderer for ``world``; buffers render.py does not know by name yet are uploaded here
-    (render() binds every buffer in ``Renderer.tbos``)."""
+    """A Renderer for ``world`` with ``features`` (which may differ from the world's own)."""
     from mcpt.render import Renderer
-    from mcpt.tbo import create_tbo
 
-    try:
-        return Renderer(gl, world, features)
-    except KeyError:
-        pass
-    orig = world.buffers
-    extra = {}
-
-    def known(f):
-        d = orig(f)
-        for k in [k for k in d if k not in ("tris", "nodes", "materials", "lights")]:
-            extra[k] = d.pop(k)
-        return d
-
-    world.buffers = known
-    try:
-        r = Renderer(gl, world, features)
-    finally:
-        del world.buffers
-    for k, a in extra.items():
-        r.tbos[k] = create_tbo(gl, k, a)
-    return r
+    return Renderer(gl, world, features)
