@@ -29,7 +29,7 @@ from . import features as feat
 from .bvh import BVH, build_bvh
 from .lights import Lights, build_lights, material_light_pdf_area
 from .materials import MaterialTable
-from .mesh import load_mesh
+from .mesh import first_of_duplicates, load_mesh
 from .scene import Scene
 from .textures import Texture, load_texture, pack_textures
 
@@ -126,6 +126,14 @@ def pack_uvs(uvs: np.ndarray) -> np.ndarray:
     return out.view(np.uint32).reshape(-1, 4)
 
 
+def _first_of_duplicate_triangles(tris32: np.ndarray) -> np.ndarray:
+    """Indices of the first occurrence of each triangle, equal float32 corners in the same cyclic
+    order counting as the same triangle (what mesh.py does per file, here across files)."""
+    corners = np.ascontiguousarray(tris32.reshape(-1, 3)).view(np.uint32)
+    _, ids = np.unique(corners, axis=0, return_inverse=True)
+    return first_of_duplicates(ids.reshape(-1, 3))
+
+
 def pack_triangles(tris: np.ndarray, tri_material: np.ndarray) -> np.ndarray:
     """Three RGBA32UI texels per triangle: (v0 bits, material), (v1 bits, 0), (v2 bits, 0)."""
     f = tris.shape[0]
@@ -169,7 +177,7 @@ def load_world(scene: Scene) -> World:
         return index[key]
 
     verts, mats, normals, uvs = [], [], [], []
-    dropped = 0
+    dropped = dropped_dup = 0
     for mi, spec in enumerate(scene.meshes):
         ym = scene.materials[spec.material] if spec.material is not None else None
         need_normals = bool(ym is not None and ym.smooth_normals)
@@ -177,6 +185,7 @@ def load_world(scene: Scene) -> World:
         mesh = load_mesh(spec.file, spec.transform.matrix(), need_normals=need_normals,
                          need_uvs=need_uvs)
         dropped += mesh.dropped_degenerate
+        dropped_dup += mesh.dropped_duplicate
         ids = np.empty(len(mesh.materials), np.int32)
         for k, mm in enumerate(mesh.materials):
             mtl_kd = tuple(mm.kd) if mm.kd is not None else DEFAULT_ALBEDO
@@ -208,15 +217,22 @@ def load_world(scene: Scene) -> World:
     t_load = time.perf_counter() - t0
 
     tris32 = tris64.astype(np.float32)
+    keep = _first_of_duplicate_triangles(tris32) if len(scene.meshes) > 1 else slice(None)
+    duplicates = 0 if isinstance(keep, slice) else int(tris32.shape[0] - keep.size)
+    if duplicates:
+        # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one
+        # surface for BSDF hits: direct light counted double. mesh.py does this within a file.
+        log.info("dropped %d triangles repeated across mesh files", duplicates)
+    tris32, tri_mat = tris32[keep], tri_mat[keep]
     bvh = build_bvh(tris32)
     tris32 = tris32[bvh.order]
     tri_mat = tri_mat[bvh.order]
     n_arr = uv_arr = None
     if any(n is not None for n in normals):
         n_arr = np.concatenate([n if n is not None else np.zeros((v.shape[0], 3, 3), np.float32)
-                                for n, v in zip(normals, verts)]).astype(np.float32)[bvh.order]
+                                for n, v in zip(normals, verts)]).astype(np.float32)[keep][bvh.order]
     if textures:
-        uv_arr = np.concatenate(uvs).astype(np.float32)[bvh.order]
+        uv_arr = np.concatenate(uvs).astype(np.float32)[keep][bvh.order]
     table = MaterialTable(tuple(cols["names"]), tuple(cols["types"]),
                           np.asarray(cols["albedo"], np.float64), np.asarray(cols["emission"], np.float64),
                           alpha=np.asarray(cols["alpha"], np.float64), ior=np.asarray(cols["ior"], np.float64),
@@ -231,6 +247,7 @@ def load_world(scene: Scene) -> World:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")
     stats = {"triangles": int(tris32.shape[0]), "dropped_degenerate": int(dropped),
+             "dropped_duplicate": int(dropped_dup + duplicates),
              "materials": len(cols["names"]), "emissive_triangles": lights.count,
              "textures": len(textures), "load_seconds": t_load, "bvh": bvh.stats()}
     return World(scene, tris32, tri_mat, table, lights, bvh, stats, n_arr, uv_arr, textures)

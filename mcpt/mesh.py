@@ -397,7 +397,7 @@ def _assemble(
     # of an emitter would be two lights for next-event estimation but one surface for BSDF-sampled
     # hits, which over-counts direct light (issue #6: +48 % in a Cornell box). The reversed
     # winding is a different surface (a two-sided emitter) and stays.
-    unique = _first_of_duplicates(face_arr)
+    unique = first_of_duplicates(face_arr)
     duplicates = int(len(face_arr) - unique.size)
     if duplicates:
         log.info("%s: dropped %d duplicated triangles of %d", path, duplicates, len(face_arr))
@@ -518,7 +518,7 @@ def _restore_obj_precision(path: Path, parts: list) -> None:
         p.vertices = np.where(found[:, None], se[pos], p.vertices)
 
 
-def _first_of_duplicates(faces: np.ndarray) -> np.ndarray:
+def first_of_duplicates(faces: np.ndarray) -> np.ndarray:
     """Sorted indices of the first occurrence of every triangle, equal up to a cyclic rotation
     of its corners (index based: Assimp's JoinIdenticalVertices gives equal corners equal indices)."""
     if len(faces) < 2:

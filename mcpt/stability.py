@@ -892,15 +892,7 @@ def _duplicates(env: Env) -> Outcome:
     return out
 
 
-def _cross_file_known(env: Env) -> str | None:
-    return ("the same emitter listed twice in the YAML is two lights for next-event estimation but "
-            "one surface for BSDF-sampled hits, so direct light is over-counted. Fix (mcpt/loader.py "
-            "load_world): drop triangles whose three float32 corners repeat an earlier triangle's "
-            "(same winding) after concatenating all meshes, before build_bvh, and count them "
-            "in stats['dropped_duplicate']")
-
-
-@case("duplicated-emitter-across-files", "geometry", known=_cross_file_known)
+@case("duplicated-emitter-across-files", "geometry")
 def _duplicate_files(env: Env) -> Outcome:
     """The Cornell light listed twice in the scene file (two mesh entries, one OBJ)."""
     light = {"file": (CORNELL_YAML.parent / "cornell/light.obj").resolve(), "material": "light"}
