@@ -6,6 +6,7 @@
 
 layout(binding = 1) uniform usamplerBuffer u_nodes;
 #define BVH_STACK 64   // >= tree depth + 2, asserted by the builder (mcpt/bvh.py MAX_STACK)
+#define BVH_MAX_LEAF 4 // triangles per leaf at most (mcpt/bvh.py GPU_MAX_LEAF, asserted there)
 
 // Slab test. Zero direction components are replaced by a tiny value upstream (safe_inv) so no
 // 0 * inf = NaN appears; the far distance is widened by 2 gamma(3) (Ize 2013, "Robust BVH Ray
@@ -34,17 +35,35 @@ vec3 safe_inv(vec3 d) {
                       abs(d.z) < TINY ? (d.z < 0.0 ? -TINY : TINY) : d.z);
 }
 
+// Triangles first .. first + count - 1 (count <= BVH_MAX_LEAF), written out rather than looped:
+// a leaf then costs no loop iterations (llvmpipe limits them, see common.glsl).
+bool leaf_hit(Ray r, RayPre p, int first, int count, bool any_hit, inout Hit h) {
+    bool found = false;
+    float t; vec2 bary;
+#define LEAF_TRI(k) \
+    if (count > k && intersect_tri(r, p, first + k, h.t, t, bary)) { \
+        h.t = t; h.tri = first + k; h.bary = bary; found = true; \
+        if (any_hit) return true; \
+    }
+    LEAF_TRI(0)
+    LEAF_TRI(1)
+    LEAF_TRI(2)
+    LEAF_TRI(3)
+#undef LEAF_TRI
+    return found;
+}
+
 // any_hit = true: return on the first hit with t < h.t (shadow rays).
 bool trace(Ray r, inout Hit h, bool any_hit) {
     RayPre p = ray_pre(r.d);
     bool found = false;
-    float t; vec2 bary;
 #if MCPT_BVH
     vec3 inv = safe_inv(r.d);
     int stack[BVH_STACK];
     int sp = 0;
     int node = 0;
     while (true) {
+        LOOP_TICK();
         uvec4 l0 = texelFetch(u_nodes, 4 * node);
         uvec4 l1 = texelFetch(u_nodes, 4 * node + 1);
         uvec4 r0 = texelFetch(u_nodes, 4 * node + 2);
@@ -53,17 +72,13 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
         bool hl = box_hit(uintBitsToFloat(l0.xyz), uintBitsToFloat(l1.xyz), r.o, inv, h.t, tl);
         bool hr = box_hit(uintBitsToFloat(r0.xyz), uintBitsToFloat(r1.xyz), r.o, inv, h.t, tr);
         // Leaf children are intersected right here; only interior children are descended into.
-        for (int side = 0; side < 2; ++side) {
-            bool hit_leaf = side == 0 ? (hl && l1.w != 0u) : (hr && r1.w != 0u);
-            if (!hit_leaf) continue;
-            int first = int(side == 0 ? l0.w : r0.w);
-            int end = first + int((side == 0 ? l1.w : r1.w) & 0x7fffffffu);
-            for (int i = first; i < end; ++i) {
-                if (intersect_tri(r, p, i, h.t, t, bary)) {
-                    h.t = t; h.tri = i; h.bary = bary; found = true;
-                    if (any_hit) return true;
-                }
-            }
+        if (hl && l1.w != 0u && leaf_hit(r, p, int(l0.w), int(l1.w & 0x7fffffffu), any_hit, h)) {
+            found = true;
+            if (any_hit) return true;
+        }
+        if (hr && r1.w != 0u && leaf_hit(r, p, int(r0.w), int(r1.w & 0x7fffffffu), any_hit, h)) {
+            found = true;
+            if (any_hit) return true;
         }
         hl = hl && l1.w == 0u;
         hr = hr && r1.w == 0u;
@@ -81,9 +96,11 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
         }
     }
 #else
-    for (int i = 0; i < u_tri_count; ++i) {
-        if (intersect_tri(r, p, i, h.t, t, bary)) {
-            h.t = t; h.tri = i; h.bary = bary; found = true;
+    // BVH_MAX_LEAF triangles per iteration: fewer loop iterations (see common.glsl).
+    for (int i = 0; i < u_tri_count; i += BVH_MAX_LEAF) {
+        LOOP_TICK();
+        if (leaf_hit(r, p, i, min(BVH_MAX_LEAF, u_tri_count - i), any_hit, h)) {
+            found = true;
             if (any_hit) return true;
         }
     }

@@ -5,6 +5,28 @@ const float INF = 1.0 / 0.0;
 
 struct Ray { vec3 o; vec3 d; };
 
+// llvmpipe's loop limiter stops the loops of a shader invocation once they have run 65535
+// iterations in total, silently (issue #6 stability suite), and the compiler has already folded
+// away any "did the loop end normally" test. So where the renderer is llvmpipe, MCPT_LOOP_LIMIT
+// is 65535 and every loop of the path tracer ticks a counter; a sample whose counter reaches
+// 3/4 of the limit is dropped and counted like a non-finite one (glsl/pathtrace.frag main). The
+// limiter counts per SIMD batch, so a lane cut short early by slower neighbours can still slip
+// through: the check catches the common case (deep paths), not every one.
+// 0 (real GPUs, no limiter): no counter, no cost.
+#ifndef MCPT_LOOP_LIMIT
+#define MCPT_LOOP_LIMIT 0
+#endif
+#if MCPT_LOOP_LIMIT
+int g_loop_iterations = 0;
+#define LOOP_TICK() (++g_loop_iterations)
+// A lane sees ~80 % of its SIMD batch's iterations (measured: 53000 of 65535 on paths cut
+// short), so 3/4 of the limit marks a sample as (probably) cut short.
+bool loop_limit_reached() { return g_loop_iterations >= MCPT_LOOP_LIMIT / 4 * 3; }
+#else
+#define LOOP_TICK()
+bool loop_limit_reached() { return false; }
+#endif
+
 // True for +-Inf and NaN. A bit test, because llvmpipe compiles with fast-math and may fold
 // isnan()/isinf() to false (measured: ../shared/research/anchors-reliability.md).
 bool non_finite(float x) { return (floatBitsToUint(x) & 0x7f800000u) == 0x7f800000u; }

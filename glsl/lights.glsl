@@ -12,6 +12,7 @@ int light_pick(float u, out float pmf) {
     // First entry whose cdf upper bound exceeds u (binary search over inclusive prefix sums).
     int lo = 0, hi = u_light_count - 1;
     while (lo < hi) {
+        LOOP_TICK();
         int mid = (lo + hi) >> 1;
         if (uintBitsToFloat(texelFetch(u_lights, mid).y) > u) hi = mid; else lo = mid + 1;
     }

@@ -58,6 +58,7 @@ vec3 radiance(Ray ray) {
     Hit h;
     if (!trace_closest(ray, h)) return L;
     for (int k = 1; ; ++k) {
+        LOOP_TICK();
         Material m = material(tri_material(h.tri));
         vec3 n = normalize(tri_normal_raw(h.tri));
         float cos_o = dot(n, ray.d);  // < 0: the ray arrives at the front side
@@ -84,7 +85,7 @@ vec3 radiance(Ray ray) {
 #endif
             L += beta * m.emission * w;
         }
-        if (k > MCPT_BOUNCES) break;
+        if (k > MCPT_BOUNCES) return L;
         vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
         vec3 ns = ng;
         vec3 wo = -ray.d;
@@ -100,7 +101,7 @@ vec3 radiance(Ray ray) {
 #if MCPT_TEXTURES
         if (m.texture >= 0) m.albedo = texture_rgb(m.texture, tri_uv(h.tri, h.bary));
 #endif
-        if (material_black(m)) break;  // pure emitter
+        if (material_black(m)) return L;  // pure emitter
         vec3 x = tri_point(h.tri, h.bary);
         vec3 xo = offset_ray(x, ng);
         int dim = DIM_BOUNCE(k);
@@ -139,10 +140,10 @@ vec3 radiance(Ray ray) {
         }
 #endif
         BsdfSample s;
-        if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) break;
+        if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return L;
 #if MCPT_SMOOTH_NORMALS || MCPT_MAT_DIELECTRIC
         // A reflection must leave on ng's side and a refraction on the other (see above).
-        if ((dot(s.wi, ng) > 0.0) == s.transmit) break;
+        if ((dot(s.wi, ng) > 0.0) == s.transmit) return L;
 #endif
         beta *= s.weight;
         pdf_bsdf_prev = s.pdf;
@@ -162,7 +163,7 @@ vec3 radiance(Ray ray) {
             vec3 rb = beta;
   #endif
             float q = min(max(rb.r, max(rb.g, rb.b)), 0.95);
-            if (rand_at(dim + DIM_RR) >= q) break;
+            if (rand_at(dim + DIM_RR) >= q) return L;
             beta /= q;
         }
 #endif
@@ -170,7 +171,7 @@ vec3 radiance(Ray ray) {
         if (s.transmit) xo = offset_ray(x, -ng);
 #endif
         ray = Ray(xo, s.wi);
-        if (!trace_closest(ray, h)) break;
+        if (!trace_closest(ray, h)) return L;
     }
     return L;
 }
@@ -185,7 +186,8 @@ void main() {
     float mx = max(L.r, max(L.g, L.b));
     if (mx > u_clamp) L *= u_clamp / mx;
 #endif
-    o_color = non_finite(L) ? vec4(0.0, 0.0, 0.0, 1.0) : vec4(L, 0.0);
+    // Non-finite or cut short by llvmpipe's loop limit: dropped, and counted in alpha.
+    o_color = (non_finite(L) || loop_limit_reached()) ? vec4(0.0, 0.0, 0.0, 1.0) : vec4(L, 0.0);
 #if MCPT_VARIANCE
     o_square = vec4(o_color.rgb * o_color.rgb, 0.0);
 #endif

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from . import __version__
 from .context import GLContext, shared_context
-from .features import Features
+from .features import Features, loop_limit_for
 from .image import check_output_path, write_image
 from .loader import World, load_world
 from .render import Renderer, RenderResult
@@ -37,7 +37,8 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
     gl = shared_context(gl_backend)
     world = load_world(scene)
-    feats = world.features(clamp=clamp is not None, **(feature_flags or {}))
+    flags = {"loop_limit": loop_limit_for(gl.renderer), **(feature_flags or {})}
+    feats = world.features(clamp=clamp is not None, **flags)
     if features_mode == "all":
         feats = feats.everything()
     renderer = Renderer(gl, world, feats)

@@ -52,6 +52,8 @@ MAX_STACK = 64
 
 #: Top bit of texel1.w marks a leaf; the remaining 31 bits hold the triangle count.
 LEAF_FLAG = 0x80000000
+#: Triangles per leaf the GPU traversal handles (glsl/bvh.glsl BVH_MAX_LEAF, unrolled there).
+GPU_MAX_LEAF = 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,6 +126,9 @@ class BVH:
         one node whose left child is that leaf and whose right child is an empty leaf.
         """
         nodes, leaf = self.nodes, self.is_leaf
+        if self.leaf_count.max(initial=0) > GPU_MAX_LEAF:
+            raise ValueError(f"leaves of up to {self.leaf_count.max()} triangles; the GPU "
+                             f"traversal handles {GPU_MAX_LEAF} (build with max_leaf <= {GPU_MAX_LEAF})")
         interior = np.flatnonzero(~leaf)
         if interior.size == 0:
             root = nodes[0]

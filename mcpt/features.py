@@ -34,6 +34,16 @@ BVH_MIN_TRIANGLES = 64
 
 SAMPLING_MODES = ("mis", "nee", "bsdf")
 
+# llvmpipe (gallivm's loop limiter) stops the loops of a shader invocation after 65535
+# iterations in total; glsl/common.glsl counts them and drops samples that reach it.
+LLVMPIPE_LOOP_LIMIT = 65535
+
+
+def loop_limit_for(renderer: str) -> int:
+    """The loop-iteration limit of a GL renderer (GL_RENDERER string); 0 when it has none."""
+    return LLVMPIPE_LOOP_LIMIT if "llvmpipe" in renderer.lower() else 0
+
+
 
 @dataclass(frozen=True)
 class Features:
@@ -53,6 +63,7 @@ class Features:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
+    loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
@@ -114,6 +125,7 @@ class Features:
             "MCPT_SMOOTH_NORMALS": b(self.smooth_normals),
             "MCPT_CLAMP": b(self.clamp),
             "MCPT_VARIANCE": b(self.variance),
+            "MCPT_LOOP_LIMIT": self.loop_limit,
         }
 
     def preamble(self) -> str:
@@ -129,7 +141,8 @@ class Features:
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, sampling: str = "mis", russian_roulette: bool = True,
-           bvh: bool | None = None, clamp: bool = False, variance: bool = False) -> Features:
+           bvh: bool | None = None, clamp: bool = False, variance: bool = False,
+           loop_limit: int = 0) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
@@ -153,4 +166,5 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         smooth_normals=smooth_normals,
         clamp=clamp,
         variance=variance,
+        loop_limit=loop_limit,
     )
