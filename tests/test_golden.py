@@ -46,6 +46,7 @@ def test_fresh_render_matches_the_golden(name, gl, fresh):
     mean, meta = fresh[name]
     assert meta["seed"] != g.meta["seed"]
     assert meta["dropped_samples"] == 0
+    assert g.meta.get("clamp") == spec.clamp  # a clamped image is only comparable with one
     result = golden.compare(spec, g, mean, spec.test_spp)
     if not result.passed:
         golden.write_report(report_dir(gl), name, mean, g.mean, result)
