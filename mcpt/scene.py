@@ -275,20 +275,26 @@ class RenderSettings(_Model):
 TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 
 
-def _texture_file(value: Any, info: ValidationInfo) -> Any:
-    """A texture path: relative to the scene file's folder, must be an existing image file."""
+def _scene_path(value: Any, info: ValidationInfo, what: str = "a file path") -> Path:
+    """A path from the scene file: relative ones are relative to the scene file's folder (passed
+    as validation context), so a scene renders the same whatever the working directory."""
     if isinstance(value, str):
         if not value:
             raise PydanticCustomError("empty_path", "file is an empty string")
         value = Path(value)
     elif not isinstance(value, Path):
         raise PydanticCustomError(
-            "path_kind", "expected an image file path (string), got {type}", {"type": _type_name(value)}
+            "path_kind", "expected {what} (string), got {type}", {"what": what, "type": _type_name(value)}
         )
     base = (info.context or {}).get("base_dir")
     if not value.is_absolute() and base is not None:
         value = Path(base) / value
-    value = value.resolve()
+    return value.resolve()
+
+
+def _texture_file(value: Any, info: ValidationInfo) -> Any:
+    """A texture path: relative to the scene file's folder, must be an existing image file."""
+    value = _scene_path(value, info, "an image file path")
     if not value.is_file():
         raise PydanticCustomError("texture_missing", "texture file not found: {path}", {"path": str(value)})
     if value.suffix.lower() not in TEXTURE_SUFFIXES:
@@ -481,20 +487,7 @@ class Mesh(_Model):
     @field_validator("file", mode="before")
     @classmethod
     def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
-        if isinstance(value, str):
-            if not value:
-                raise PydanticCustomError("empty_path", "file is an empty string")
-            value = Path(value)
-        elif not isinstance(value, Path):
-            raise PydanticCustomError(
-                "path_kind", "expected a file path (string), got {type}", {"type": _type_name(value)}
-            )
-        # Relative paths are relative to the scene file's folder (passed as validation context),
-        # so a scene renders the same whatever the working directory; without context: the cwd.
-        base = (info.context or {}).get("base_dir")
-        if not value.is_absolute() and base is not None:
-            value = Path(base) / value
-        return value.resolve()
+        return _scene_path(value, info)
 
     @field_validator("file", mode="after")
     @classmethod

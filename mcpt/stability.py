@@ -37,16 +37,13 @@ import numpy as np
 
 from .golden import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
 
+from .features import LLVMPIPE_LOOP_LIMIT  # noqa: E402  (measured by the llvmpipe-loop-limit case)
+
 ROOT = Path(__file__).resolve().parent.parent
 SPHERE_OBJ = ROOT / "scenes" / "furnace" / "sphere_inward.obj"
 CORNELL_YAML = ROOT / "scenes" / "cornell-box.yaml"
 FURNACE_YAML = ROOT / "scenes" / "furnace.yaml"
 FLT_MAX = float(np.finfo(np.float32).max)
-
-#: llvmpipe ends every loop of a shader invocation once the invocation has taken this many loop
-#: back-edges in total (Mesa gallivm LP_MAX_TGSI_LOOP_ITERATIONS), silently. Measured by the
-#: "llvmpipe-loop-limit" case.
-LLVMPIPE_LOOP_LIMIT = 65535
 
 
 # ------------------------------------------------------------------------------------------------
@@ -307,7 +304,7 @@ _furnace_case("furnace-a1-b300-no-rr", 1.0, 300, spp=2, res=8, russian_roulette=
 
 
 @case("loop-limit-reached-is-counted", "non-finite")
-def _loop_limit(env: Env) -> Outcome:
+def _loop_limit_counted(env: Env) -> Outcome:
     """A 20000-bounce path cannot finish inside llvmpipe's 65535 loop iterations: every sample
     must be dropped and counted (glsl/common.glsl MCPT_LOOP_LIMIT), not come out silently dark.
     Elsewhere (no loop limit) the path completes: L = 20001 (albedo 1, no roulette)."""
@@ -1006,13 +1003,34 @@ def _overflow(env: Env) -> Outcome:
                    res.dropped_samples == n and finite)
 
 
+def run_one_pixel(env: Env, fs: str, uniforms: dict) -> np.ndarray:
+    """Run a fragment shader (full source, ``out uvec4`` at location 0) on one pixel: its uvec4."""
+    import moderngl
+
+    vs = ("#version 430 core\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);"
+          " gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }")
+    ctx = env.gl.ctx
+    prog = ctx.program(vertex_shader=vs, fragment_shader=fs)
+    tex = ctx.texture((1, 1), 4, dtype="u4")
+    fbo = ctx.framebuffer(color_attachments=[tex])
+    vao = ctx.vertex_array(prog, [])
+    try:
+        for k, val in uniforms.items():
+            prog[k].value = val
+        fbo.use()
+        ctx.disable(moderngl.BLEND)
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        return np.frombuffer(fbo.read(components=4, dtype="u4"), np.uint32).copy()
+    finally:
+        for o in (vao, fbo, tex, prog):
+            o.release()
+
+
 @case("non-finite-test-under-fast-math", "non-finite")
 def _nonfinite_probe(env: Env) -> Outcome:
     """common.glsl's non_finite() on runtime NaN (0/0), +-Inf (1/0, FLT_MAX * 2) and on finite
     extremes (FLT_MAX, a denormal, 0): llvmpipe's fast-math folds isnan()/isinf(), the bit test
     must not be."""
-    import moderngl
-
     from .shader import glsl_dir
 
     common = (glsl_dir() / "common.glsl").read_text()
@@ -1026,23 +1044,8 @@ void main() {
     for (int i = 0; i < 8; ++i) if (non_finite(v[i])) bits |= 1u << i;
     o = uvec4(bits, 0u, 0u, 0u);
 }""")
-    vs = ("#version 430 core\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);"
-          " gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }")
-    ctx = env.gl.ctx
-    prog = ctx.program(vertex_shader=vs, fragment_shader=fs)
-    tex = ctx.texture((1, 1), 4, dtype="u4")
-    fbo = ctx.framebuffer(color_attachments=[tex])
-    vao = ctx.vertex_array(prog, [])
-    try:
-        for k, val in (("u_zero", 0.0), ("u_one", 1.0), ("u_max", FLT_MAX), ("u_tiny", 1e-40)):
-            prog[k].value = val
-        fbo.use()
-        ctx.disable(moderngl.BLEND)
-        vao.render(moderngl.TRIANGLES, vertices=3)
-        bits = int(np.frombuffer(fbo.read(components=4, dtype="u4"), np.uint32)[0])
-    finally:
-        for o in (vao, fbo, tex, prog):
-            o.release()
+    bits = int(run_one_pixel(env, fs, {"u_zero": 0.0, "u_one": 1.0, "u_max": FLT_MAX,
+                                       "u_tiny": 1e-40})[0])
     want = 0b00001111
     flags = "".join("1" if bits >> i & 1 else "0" for i in range(8))
     return Outcome("NaN, +Inf, -Inf, 2 FLT_MAX flagged; FLT_MAX, denormal, 0, -FLT_MAX not: 11110000",
@@ -1101,27 +1104,11 @@ def _chunks(env: Env) -> Outcome:
 def _loop_limit(env: Env) -> Outcome:
     """How many loop iterations one fragment may run: llvmpipe stops every loop once a pixel has
     taken 65535 back-edges in total (and says nothing). Documents the limit the deep cases hit."""
-    import moderngl
-
     fs = """#version 430 core
 uniform int u_n;
 layout(location = 0) out uvec4 o;
 void main() { uint c = 0u; for (int i = 0; i < u_n; ++i) c++; o = uvec4(c, 0u, 0u, 0u); }"""
-    vs = ("#version 430 core\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);"
-          " gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }")
-    ctx = env.gl.ctx
-    prog = ctx.program(vertex_shader=vs, fragment_shader=fs)
-    tex = ctx.texture((1, 1), 4, dtype="u4")
-    fbo = ctx.framebuffer(color_attachments=[tex])
-    vao = ctx.vertex_array(prog, [])
-    try:
-        prog["u_n"].value = 100_000
-        fbo.use()
-        vao.render(moderngl.TRIANGLES, vertices=3)
-        n = int(np.frombuffer(fbo.read(components=4, dtype="u4"), np.uint32)[0])
-    finally:
-        for o in (vao, fbo, tex, prog):
-            o.release()
+    n = int(run_one_pixel(env, fs, {"u_n": 100_000})[0])
     want = LLVMPIPE_LOOP_LIMIT if env.llvmpipe else 100_000
     return Outcome(f"{want} of 100000 iterations ({'llvmpipe' if env.llvmpipe else 'no limit'})",
                    f"{n}", n == want)
