@@ -61,7 +61,7 @@ def edit(old: str, new: str, text: str = BASE) -> str:
     return text.replace(old, new)
 
 
-def expect_error(text: str, line: int | None, key: str, *reason_parts: str, path: Path = FAKE) -> SceneError:
+def assert_scene_error(text: str, line: int | None, key: str, *reason_parts: str, path: Path = FAKE) -> SceneError:
     """Parse ``text``; assert a SceneError ``<file>:<line>: <key>: ...`` mentioning ``reason_parts``."""
     with pytest.raises(SceneError) as info:
         parse_scene(text, path)
@@ -157,67 +157,67 @@ def test_scene_is_immutable():
 
 def test_unknown_key():
     text = edit("  seed: 7", "  sede: 7")
-    expect_error(text, line_of(text, "sede"), "render.sede", "unknown key 'sede'", "did you mean 'seed'")
+    assert_scene_error(text, line_of(text, "sede"), "render.sede", "unknown key 'sede'", "did you mean 'seed'")
 
 
 def test_unknown_key_in_list_item():
     text = edit("    material: lamp", "    material: lamp\n    colour: red")
-    expect_error(text, line_of(text, "colour"), "meshes.2.colour", "unknown key", "allowed: file, material, transform")
+    assert_scene_error(text, line_of(text, "colour"), "meshes.2.colour", "unknown key", "allowed: file, material, transform")
 
 
 def test_string_for_int():
     text = edit("spp: 16", "spp: abc")
-    expect_error(text, line_of(text, "spp"), "render.spp", "valid integer", "'abc'")
+    assert_scene_error(text, line_of(text, "spp"), "render.spp", "valid integer", "'abc'")
 
 
 def test_quoted_number_is_not_a_number():
     text = edit("vfov_deg: 39.3077", 'vfov_deg: "39.3077"')
-    expect_error(text, line_of(text, "vfov_deg"), "camera.vfov_deg", "valid number", "str")
+    assert_scene_error(text, line_of(text, "vfov_deg"), "camera.vfov_deg", "valid number", "str")
 
 
 def test_bool_for_int():
     text = edit("bounces: 4", "bounces: true")
-    expect_error(text, line_of(text, "bounces"), "render.bounces", "valid integer", "bool")
+    assert_scene_error(text, line_of(text, "bounces"), "render.bounces", "valid integer", "bool")
 
 
 def test_bool_for_float_in_list():
     text = edit("albedo: [0.8, 0.7, 0.6]", "albedo: [0.8, yes, 0.6]")
-    expect_error(text, line_of(text, "yes"), "materials.white.albedo.1", "valid number", "bool")
+    assert_scene_error(text, line_of(text, "yes"), "materials.white.albedo.1", "valid number", "bool")
 
 
 @pytest.mark.parametrize("bad", [".nan", ".inf", "-.inf"])
 def test_nan_and_inf_rejected(bad):
     text = edit("vfov_deg: 39.3077", f"vfov_deg: {bad}")
-    expect_error(text, line_of(text, "vfov_deg"), "camera.vfov_deg", "finite number")
+    assert_scene_error(text, line_of(text, "vfov_deg"), "camera.vfov_deg", "finite number")
 
 
 def test_inf_in_block_list_item_points_at_the_item():
     text = edit("position: [0.0, 0.0, 3.9]", "position:\n    - 0.0\n    - .inf\n    - 3.9")
-    expect_error(text, line_of(text, ".inf"), "camera.position.1", "finite number")
+    assert_scene_error(text, line_of(text, ".inf"), "camera.position.1", "finite number")
 
 
 def test_duplicate_key_names_both_lines():
     text = edit("  seed: 7", "  seed: 7\n  spp: 32")
     first, second = [i for i, l in enumerate(text.splitlines(), 1) if "spp:" in l]
-    expect_error(text, second, "render.spp", "duplicate key 'spp'", f"line {first}")
+    assert_scene_error(text, second, "render.spp", "duplicate key 'spp'", f"line {first}")
 
 
 def test_duplicate_key_inside_list_item():
     text = edit("    material: lamp", "    material: lamp\n    material: white")
     lines = [i for i, l in enumerate(text.splitlines(), 1) if "material:" in l]
-    expect_error(text, lines[-1], "meshes.2.material", "duplicate key", f"line {lines[-2]}")
+    assert_scene_error(text, lines[-1], "meshes.2.material", "duplicate key", f"line {lines[-2]}")
 
 
 def test_duplicate_top_level_section():
     text = BASE + "render:\n  spp: 1\n"
     first, second = [i for i, l in enumerate(text.splitlines(), 1) if l.startswith("render:")]
-    expect_error(text, second, "render", "duplicate key", f"line {first}")
+    assert_scene_error(text, second, "render", "duplicate key", f"line {first}")
 
 
 def test_exponent_float_is_a_float_so_int_fields_reject_it():
     # YAML 1.2 reads 1e3 as a float (PyYAML's 1.1 rules would make it a string); spp is an int.
     text = edit("spp: 16", "spp: 1e3")
-    expect_error(text, line_of(text, "spp"), "render.spp", "valid integer", "float 1000.0", "write 1000")
+    assert_scene_error(text, line_of(text, "spp"), "render.spp", "valid integer", "float 1000.0", "write 1000")
 
 
 def test_exponent_floats_load_as_floats():
@@ -238,18 +238,18 @@ def test_ints_stay_ints():
 def test_missing_mesh_file():
     text = edit("cornell/light.obj", "cornell/nope.obj")
     resolved = (SCENES / "cornell" / "nope.obj").resolve()
-    expect_error(text, line_of(text, "nope.obj"), "meshes.2.file", "not found", str(resolved))
+    assert_scene_error(text, line_of(text, "nope.obj"), "meshes.2.file", "not found", str(resolved))
 
 
 def test_mesh_file_is_a_directory():
     text = edit("file: cornell/light.obj", "file: cornell")
     line = text.splitlines().index("  - file: cornell") + 1
-    expect_error(text, line, "meshes.2.file", "not a regular file", str((SCENES / "cornell").resolve()))
+    assert_scene_error(text, line, "meshes.2.file", "not a regular file", str((SCENES / "cornell").resolve()))
 
 
 def test_undefined_material_lists_defined_ones():
     text = edit("material: lamp", "material: lmap")
-    expect_error(text, line_of(text, "lmap"), "meshes.2.material", "undefined material 'lmap'", "lamp, white")
+    assert_scene_error(text, line_of(text, "lmap"), "meshes.2.material", "undefined material 'lmap'", "lamp, white")
 
 
 def test_malformed_yaml():
@@ -265,12 +265,12 @@ def test_malformed_yaml():
 
 def test_malformed_yaml_tab_indent():
     text = edit("  spp: 16", "\tspp: 16")
-    expect_error(text, line_of(text, "spp"), "", "malformed YAML")
+    assert_scene_error(text, line_of(text, "spp"), "", "malformed YAML")
 
 
 def test_python_tags_refused():
     text = edit("spp: 16", "spp: !!python/object/apply:os.getcwd []")
-    expect_error(text, line_of(text, "spp"), "", "unsupported YAML")
+    assert_scene_error(text, line_of(text, "spp"), "", "unsupported YAML")
 
 
 @pytest.mark.parametrize("content", ["", "\n\n", "# only a comment\n"])
@@ -284,7 +284,7 @@ def test_empty_file(tmp_path, content):
 
 def test_top_level_not_a_mapping():
     text = "# a list\n- camera\n- meshes\n"
-    expect_error(text, 2, "", "must be a mapping", "list")
+    assert_scene_error(text, 2, "", "must be a mapping", "list")
 
 
 def test_unreadable_file(tmp_path):
@@ -296,56 +296,56 @@ def test_unreadable_file(tmp_path):
 
 def test_negative_spp():
     text = edit("spp: 16", "spp: -3")
-    expect_error(text, line_of(text, "spp"), "render.spp", "greater than or equal to 1")
+    assert_scene_error(text, line_of(text, "spp"), "render.spp", "greater than or equal to 1")
 
 
 @pytest.mark.parametrize("res, index", [("[0, 128]", 0), ("[256, 0]", 1), ("[256, 16385]", 1)])
 def test_resolution_bounds(res, index):
     text = edit("resolution: [256, 128]", f"resolution: {res}")
-    expect_error(text, line_of(text, "resolution"), f"camera.resolution.{index}", "Input should be")
+    assert_scene_error(text, line_of(text, "resolution"), f"camera.resolution.{index}", "Input should be")
 
 
 def test_resolution_wrong_length():
     text = edit("resolution: [256, 128]", "resolution: [256]")
-    expect_error(text, line_of(text, "resolution"), "camera.resolution", "list of 2 integers", "1 item")
+    assert_scene_error(text, line_of(text, "resolution"), "camera.resolution", "list of 2 integers", "1 item")
 
 
 def test_missing_required_key_points_at_parent():
     text = edit("  vfov_deg: 39.3077\n", "")
-    expect_error(text, line_of(text, "camera:"), "camera.vfov_deg", "required key is missing")
+    assert_scene_error(text, line_of(text, "camera:"), "camera.vfov_deg", "required key is missing")
 
 
 def test_meshes_must_not_be_empty():
     text = BASE[: BASE.index("meshes:")] + "meshes: []\n"
-    expect_error(text, line_of(text, "meshes:"), "meshes", "at least 1 item")
+    assert_scene_error(text, line_of(text, "meshes:"), "meshes", "at least 1 item")
 
 
 @pytest.mark.parametrize("vfov", ["0", "180", "-5", "200.5"])
 def test_vfov_bounds(vfov):
     text = edit("vfov_deg: 39.3077", f"vfov_deg: {vfov}")
-    expect_error(text, line_of(text, "vfov_deg"), "camera.vfov_deg", "Input should be")
+    assert_scene_error(text, line_of(text, "vfov_deg"), "camera.vfov_deg", "Input should be")
 
 
 def test_up_parallel_to_view_direction():
     text = edit("up: [0.0, 1.0, 0.0]", "up: [0.0, 0.0, 5.0]")
-    expect_error(text, line_of(text, "up:"), "camera.up", "parallel")
+    assert_scene_error(text, line_of(text, "up:"), "camera.up", "parallel")
 
 
 def test_position_equals_look_at():
     text = edit("position: [0.0, 0.0, 3.9]", "position: [0.0, 0.0, 0.0]")
-    expect_error(text, line_of(text, "look_at"), "camera.look_at", "equals position")
+    assert_scene_error(text, line_of(text, "look_at"), "camera.look_at", "equals position")
 
 
 def test_albedo_out_of_range_and_negative_emission():
     text = edit("albedo: [0.8, 0.7, 0.6]", "albedo: [0.8, 1.5, 0.6]")
-    expect_error(text, line_of(text, "1.5"), "materials.white.albedo.1", "less than or equal to 1")
+    assert_scene_error(text, line_of(text, "1.5"), "materials.white.albedo.1", "less than or equal to 1")
     text = edit("emission: [10.0, 9.0, 8.0]", "emission: [10.0, -9.0, 8.0]")
-    expect_error(text, line_of(text, "emission"), "materials.lamp.emission.1", "greater than or equal to 0")
+    assert_scene_error(text, line_of(text, "emission"), "materials.lamp.emission.1", "greater than or equal to 0")
 
 
 def test_unknown_material_type():
     text = edit("  white:\n", "  white:\n    type: metal\n")
-    expect_error(text, line_of(text, "metal"), "materials.white.type", "'diffuse'")
+    assert_scene_error(text, line_of(text, "metal"), "materials.white.type", "'diffuse'")
 
 
 def _with_transform(body: str) -> str:
@@ -355,21 +355,21 @@ def _with_transform(body: str) -> str:
 @pytest.mark.parametrize("scale", ["0", "[1, 0, 1]", "0.0"])
 def test_zero_scale(scale):
     text = _with_transform(f"      scale: {scale}")
-    expect_error(text, line_of(text, "scale"), "meshes.2.transform.scale", "nonzero")
+    assert_scene_error(text, line_of(text, "scale"), "meshes.2.transform.scale", "nonzero")
 
 
 def test_scale_wrong_type():
     text = _with_transform("      scale: big")
-    expect_error(text, line_of(text, "scale"), "meshes.2.transform.scale", "number or a list of 3 numbers")
+    assert_scene_error(text, line_of(text, "scale"), "meshes.2.transform.scale", "number or a list of 3 numbers")
 
 
 def test_matrix_last_row_and_singular_and_exclusive():
     text = _with_transform("      matrix: [[1,0,0,0], [0,1,0,0], [0,0,1,0], [0,0,1,1]]")
-    expect_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix.3", "last row")
+    assert_scene_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix.3", "last row")
     text = _with_transform("      matrix:\n        - [1,0,0,0]\n        - [0,1,0,0]\n        - [1,1,0,0]\n        - [0,0,0,1]")
-    expect_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix", "singular")
+    assert_scene_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix", "singular")
     text = _with_transform("      translate: [1, 2, 3]\n      matrix: [[1,0,0,0], [0,1,0,0], [0,0,1,0], [0,0,0,1]]")
-    expect_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix", "cannot be combined with translate")
+    assert_scene_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix", "cannot be combined with translate")
 
 
 def test_scene_error_pickles():
