@@ -103,8 +103,6 @@ class Renderer:
             raise RenderError(f"{self.width}x{self.height} exceeds GL_MAX_TEXTURE_SIZE / "
                               f"GL_MAX_VIEWPORT_DIMS = {cap} on {gl.renderer}; lower --resolution")
         check_host_memory(self.width, self.height, 2 if features.variance else 1)
-        self.tiles = plan_tiles(self.width, self.height, features.random_dims,
-                                limits["max_texture_buffer_size"], max_random_per_tile)
         t0 = time.perf_counter()
         self.program = shader.program(ctx, "fullscreen.vert", "pathtrace.frag", features.preamble(),
                                       features.key)
@@ -115,6 +113,8 @@ class Renderer:
             if name == "materials":
                 per = features.material_texels
             self.tbos[name] = create_tbo(gl, name, arr, per_item=per, item=item)
+        self.tiles = plan_tiles(self.width, self.height, features.random_dims,
+                                limits["max_texture_buffer_size"], max_random_per_tile)
         tile_pixels = max(w * h for _, _, w, h in self.tiles)
         # Host staging array filled in place each pass, and two buffer textures used in turn.
         self._numbers = np.zeros(tile_pixels * features.random_dims, np.float32)
