@@ -68,7 +68,7 @@ def check_invariants(bvh, tris: np.ndarray, max_leaf: int) -> None:
             stack.append((i + 1, depth + 1))
     assert visit == list(range(n_nodes)), "nodes are not in depth-first pre-order"
     assert bvh.depth == depth_of.max()
-    assert bvh.depth <= depth_bound(n_tris, max_leaf)
+    assert bvh.depth <= depth_bound(n_tris, max_leaf) + 1  # + 1: the large-triangle subtree
     assert bvh.depth + 2 <= MAX_STACK
 
     # Leaves: sizes 1..max_leaf, ranges partition [0, F).
@@ -238,3 +238,26 @@ def test_brute_force_basic():
     np.testing.assert_allclose(t[:2], [1.5, 1.0])  # t in units of |dir|
     assert i.tolist() == [1, 0, -1, -1]
     assert np.isinf(t[2:]).all()
+
+
+def test_large_triangles_get_their_own_subtree():
+    # Room-sized walls among many small triangles: a pure median split would drag the walls'
+    # extent into small leaves' boxes; build_bvh puts them under the root's right child.
+    rng = np.random.default_rng(11)
+    small = random_triangles(rng, 3000, size=0.01)
+    walls = np.array([[[-5, -5, -5], [5, -5, -5], [5, 5, -5]], [[-5, -5, -5], [5, 5, -5], [-5, 5, -5]],
+                      [[-5, -5, -5], [-5, 5, -5], [-5, 5, 5]], [[-5, -5, -5], [-5, 5, 5], [-5, -5, 5]]], float)
+    tris = np.concatenate([small[:1500], walls, small[1500:]])
+    bvh = build_bvh(tris)
+    check_invariants(bvh, tris, 4)
+    right = int(bvh.nodes[0, 3])
+    # The root's right subtree holds exactly the four walls.
+    first_wall = np.flatnonzero(np.isin(bvh.order, [1500, 1501, 1502, 1503]))
+    assert sorted(bvh.order[first_wall].tolist()) == [1500, 1501, 1502, 1503]
+    assert first_wall.min() == 3000 and first_wall.max() == 3003
+    assert right > 1 and bvh.bounds_max[1].max() < 1.5  # the small subtree's box stays small
+    origins = rng.uniform(-4, 4, (2000, 3))
+    dirs = rng.normal(size=(2000, 3))
+    t_ref, i_ref = brute_force_closest_hit(tris, origins, dirs)
+    t_bvh, i_bvh = bvh_closest_hit(bvh, tris[bvh.order], origins, dirs)
+    assert np.array_equal(np.where(i_bvh >= 0, bvh.order[np.maximum(i_bvh, 0)], -1), i_ref)
