@@ -29,6 +29,17 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def _loglog(ax, xlabel: str, ylabel: str, title: str, x_base: int = 10) -> None:
+    """Log-log axes with labels, title, grid and legend: the frame every sweep plot shares."""
+    ax.set_xscale("log", base=x_base)
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+
+
 def _gl_note(meta: dict | None) -> str:
     if not meta:
         return ""
@@ -122,36 +133,18 @@ def plot_triangles(res: dict, out: Path, meta: dict | None = None) -> list[Path]
     for r in bvh:
         a1.annotate(r["scene"], (r["triangles"], us(r)), fontsize=6, xytext=(3, -9),
                     textcoords="offset points")
-    a1.set_xscale("log")
-    a1.set_yscale("log")
-    a1.set_xlabel("triangles in the scene")
-    a1.set_ylabel("render time per path (µs, 8 bounces)")
-    a1.set_title(f"Render time against triangles ({w}x{h}, {st['spp']} spp)")
-    a1.grid(alpha=0.3, which="both")
-    a1.legend(fontsize=7)
+    _loglog(a1, "triangles in the scene", "render time per path (µs, 8 bounces)", f"Render time against triangles ({w}x{h}, {st['spp']} spp)")
 
     a2.plot(n, [r["setup"]["bvh_build_seconds"] for r in bvh], "o-", label="BVH build (numpy)")
     a2.plot(n, [r["setup"]["load_seconds"] for r in bvh], "s-", label="mesh load (assimp, transform)")
     a2.plot(n, [r["setup"]["upload_seconds"] for r in bvh], "^-", label="TBO upload + shader set-up")
-    a2.set_xscale("log")
-    a2.set_yscale("log")
-    a2.set_xlabel("triangles in the scene")
-    a2.set_ylabel("seconds")
-    a2.set_title("Set-up seconds against triangles")
-    a2.grid(alpha=0.3, which="both")
-    a2.legend(fontsize=7)
+    _loglog(a2, "triangles in the scene", "seconds", "Set-up seconds against triangles")
 
     mib = lambda b: b / 2**20  # noqa: E731
     a3.plot(n, [mib(r["setup"]["upload_bytes"].get("tris", 0)) for r in bvh], "o-", label="triangles TBO")
     a3.plot(n, [mib(r["setup"]["upload_bytes"].get("nodes", 0)) for r in bvh], "s-", label="BVH nodes TBO")
     a3.plot(n, [mib(r["setup"]["upload_bytes_total"]) for r in bvh], "k--", lw=1, label="all scene TBOs")
-    a3.set_xscale("log")
-    a3.set_yscale("log")
-    a3.set_xlabel("triangles in the scene")
-    a3.set_ylabel("bytes uploaded (MiB)")
-    a3.set_title("Texture-buffer bytes against triangles")
-    a3.grid(alpha=0.3, which="both")
-    a3.legend(fontsize=7)
+    _loglog(a3, "triangles in the scene", "bytes uploaded (MiB)", "Texture-buffer bytes against triangles")
     fig.suptitle(f"Triangle sweep — {_gl_note(meta)}", fontsize=9)
     return [_save(fig, out / "triangles.png")]
 
@@ -185,13 +178,7 @@ def plot_error(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
                 label=f"{d['label']} (peer, same reference)")
     for thr in (1e-2, 1e-3):
         a1.axhline(thr, color="k", ls=":", lw=0.8)
-    a1.set_xscale("log")
-    a1.set_yscale("log")
-    a1.set_xlabel("render seconds (set-up excluded)")
-    a1.set_ylabel("relMSE = mean((x−ref)² / (ref² + 0.01))")
-    a1.set_title(f"Error against run time: Cornell {st['resolution'][0]}x{st['resolution'][1]}, 8 bounces")
-    a1.grid(alpha=0.3, which="both")
-    a1.legend(fontsize=7)
+    _loglog(a1, "render seconds (set-up excluded)", "relMSE = mean((x−ref)² / (ref² + 0.01))", f"Error against run time: Cornell {st['resolution'][0]}x{st['resolution'][1]}, 8 bounces")
 
     a2.plot(spp, [r["rmse"] for r in recs], "o-", label="RMSE")
     a2.plot(spp, [r["mae"] for r in recs], "s-", label="MAE")
@@ -199,13 +186,7 @@ def plot_error(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
     s0 = np.array(spp, float)
     a2.plot(s0, recs[0]["rmse"] * (s0 / s0[0]) ** -0.5, "k:", lw=1, label="∝ spp^-1/2 (guide)")
     a2.plot(s0, rel[0] * (s0 / s0[0]) ** -1.0, "k--", lw=1, label="∝ spp^-1 (guide)")
-    a2.set_xscale("log", base=2)
-    a2.set_yscale("log")
-    a2.set_xlabel("samples per pixel")
-    a2.set_ylabel("error against the reference (linear radiance)")
-    a2.set_title(f"Error against samples per pixel (seed {st['seed']})")
-    a2.grid(alpha=0.3, which="both")
-    a2.legend(fontsize=7)
+    _loglog(a2, "samples per pixel", "error against the reference (linear radiance)", f"Error against samples per pixel (seed {st['seed']})", x_base=2)
     ref = sm.get("reference", {})
     fig.suptitle(f"Reference: {ref.get('note', '?')} — {_gl_note(meta)}", fontsize=9)
     return [_save(fig, out / "error.png")]
