@@ -15,14 +15,18 @@ import math
 import numpy as np
 
 
-def basis(position, look_at, up, vfov_deg: float, width: int, height: int):
-    """(forward, right_scaled, up_scaled) float64 vectors."""
-    p = np.asarray(position, np.float64)
-    f = np.asarray(look_at, np.float64) - p
+def orthonormal(position, look_at, up):
+    """(forward, right, up) unit float64 vectors of the convention above."""
+    f = np.subtract(look_at, position, dtype=np.float64)
     f /= np.linalg.norm(f)
     r = np.cross(f, np.asarray(up, np.float64))
     r /= np.linalg.norm(r)
-    u = np.cross(r, f)
+    return f, r, np.cross(r, f)
+
+
+def basis(position, look_at, up, vfov_deg: float, width: int, height: int):
+    """(forward, right_scaled, up_scaled) float64 vectors: what the shader's uniforms hold."""
+    f, r, u = orthonormal(position, look_at, up)
     t = math.tan(math.radians(vfov_deg) / 2.0)
     return f, r * (t * width / height), u * t
 

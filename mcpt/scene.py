@@ -50,6 +50,8 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from .camera import orthonormal
+
 __all__ = [
     "MAX_RESOLUTION",
     "Camera",
@@ -238,11 +240,7 @@ class Camera(_Model):
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Orthonormal ``(forward, right, up)`` vectors (float64), per the convention above."""
-        f = np.subtract(self.look_at, self.position, dtype=np.float64)
-        f /= np.linalg.norm(f)
-        r = np.cross(f, np.asarray(self.up, dtype=np.float64))
-        r /= np.linalg.norm(r)
-        return f, r, np.cross(r, f)
+        return orthonormal(self.position, self.look_at, self.up)
 
     @model_validator(mode="after")
     def _check_geometry(self) -> Camera:
