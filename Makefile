@@ -38,17 +38,17 @@ test-osmesa: setup
 	MCPT_GL_BACKEND=osmesa $(PY) -m pytest -q
 
 bench: setup
-	$(PY) bench/run.py --quick
+	$(PY) -m mcpt.bench.run --quick
 
 # Issue #6: the stability suite as a table (case, expected, measured, pass/fail); the same cases
 # run in CI as tests/test_stability.py. GL_BACKEND=osmesa to run it on OSMesa.
 stability: setup
-	$(PY) bench/stability.py $(if $(GL_BACKEND),--gl-backend $(GL_BACKEND))
+	$(PY) -m mcpt.bench.stability $(if $(GL_BACKEND),--gl-backend $(GL_BACKEND))
 
 # Regenerate the golden images of tests/test_golden.py (reference mean + per-sample variance,
 # ~2 min on llvmpipe); commit tests/golden/*.npz afterwards.
 goldens: setup
-	$(PY) -m mcpt.golden
+	$(PY) -m tests.goldens
 
 wheel: setup
 	$(PY) -m pip wheel --no-deps -w dist .

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Cold shader-compile figures, measured in a fresh process with Mesa's disk shader cache off.
 
-    python bench/compile_probe.py SCENE.yaml scene|all [--gl-backend egl]
+    python -m mcpt.bench.compile_probe SCENE.yaml scene|all [--gl-backend egl]
 
 prints one JSON line: compile_seconds (GLSL compile + link, mcpt's own figure), first_pass_seconds
 (the first 1-spp draw of a 16x16 image: llvmpipe turns the shader into machine code there),
@@ -44,7 +43,7 @@ def run(scene: Path, mode: str, gl_backend: str | None = None, timeout: float = 
     """Run this probe in a fresh interpreter and return its figures (or {"error": ...})."""
     import subprocess
 
-    cmd = [sys.executable, str(Path(__file__).resolve()), str(scene), mode]
+    cmd = [sys.executable, "-m", "mcpt.bench.compile_probe", str(scene), mode]
     if gl_backend:
         cmd += ["--gl-backend", gl_backend]
     env = {**os.environ, **ENV}
@@ -61,7 +60,4 @@ def run(scene: Path, mode: str, gl_backend: str | None = None, timeout: float = 
 
 
 if __name__ == "__main__":
-    root = Path(__file__).resolve().parent.parent
-    if str(root) not in sys.path:
-        sys.path.insert(0, str(root))
     sys.exit(main())

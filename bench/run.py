@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
-"""Benchmarks of mcpt: ``bench/run.py --quick`` (make bench) or ``bench/run.py --full``.
+"""Benchmarks of mcpt: ``python -m mcpt.bench.run --quick`` (make bench) or ``--full``; ``mcpt bench`` is the same.
 
-    bench/run.py --quick                      all sweeps, a few minutes on 2 cores
-    bench/run.py --full --only error          one sweep, the long version
-    bench/run.py --only triangles,bounces -o out/bench-tris
+    python -m mcpt.bench.run --quick                 all sweeps, a few minutes on 2 cores
+    python -m mcpt.bench.run --full --only error     one sweep, the long version
+    python -m mcpt.bench.run --only triangles,bounces -o out/bench-tris
 
 Sweeps: bounces, triangles, error, throughput (paths/s + specialisation). Results go to
 ``--out`` (default out/bench): <sweep>.json, PNG plots, REPORT.md. Exit status 1 if a sweep failed.
@@ -15,16 +14,13 @@ import argparse
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:  # run as a script: make the `bench` package importable
-    sys.path.insert(0, str(ROOT))
+from mcpt.gpu.context import BACKENDS
 
-from bench import suite, sweeps  # noqa: E402
-from mcpt.context import BACKENDS  # noqa: E402
+from . import suite, sweeps
 
 
 def parse(argv=None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(prog="bench/run.py", description=__doc__.splitlines()[0],
+    ap = argparse.ArgumentParser(prog="python -m mcpt.bench.run", description=__doc__.splitlines()[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--quick", dest="quick", action="store_true", default=True,

@@ -18,14 +18,23 @@ import yaml
 
 from . import meshes
 
-ROOT = Path(__file__).resolve().parent.parent
-CORNELL_YAML = ROOT / "scenes" / "cornell-box.yaml"
-CORNELL_DIR = ROOT / "scenes" / "cornell"
+from mcpt.scene.shipped import shipped
+
+CORNELL_YAML = shipped("cornell-box.yaml")
+CORNELL_DIR = shipped("cornell")
+# The source tree's root when this runs from a checkout (bench/ beside mcpt/), else None.
+_CHECKOUT = Path(__file__).resolve().parent.parent
+ROOT = _CHECKOUT if (_CHECKOUT / "pyproject.toml").is_file() else None
 
 
 def shared_dir() -> Path:
-    """``$MCPT_SHARED`` or ``../shared`` next to the project root."""
-    return Path(os.environ.get("MCPT_SHARED", ROOT.parent / "shared"))
+    """``$MCPT_SHARED``, else ``../shared`` beside the checkout, else ``../shared`` from the
+    current folder (an installed wheel run from the project folder)."""
+    if "MCPT_SHARED" in os.environ:
+        return Path(os.environ["MCPT_SHARED"])
+    if ROOT is not None and (ROOT.parent / "shared").is_dir():
+        return ROOT.parent / "shared"
+    return Path.cwd().parent / "shared"
 
 
 def models_dir() -> Path:

@@ -1,9 +1,9 @@
 """`make stability`: run the stability suite of issue #6 and print one table row per case.
 
-    .venv/bin/python bench/stability.py [--gl-backend egl|osmesa] [--only TEXT ...] [--json FILE]
+    .venv/bin/python -m mcpt.bench.stability [--gl-backend egl|osmesa] [--only TEXT ...] [--json FILE]
 
 Columns: group, case, expected, measured, result (PASS, FAIL, or KNOWN FAIL for a case whose
-cause and fix are reported, see mcpt/stability.py), seconds. The cases are the ones
+cause and fix are reported, see bench/stability_cases.py), seconds. The cases are the ones
 tests/test_stability.py runs in CI. Exit status 1 when a case fails that is not a known failure.
 """
 
@@ -17,9 +17,7 @@ import textwrap
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from mcpt import stability  # noqa: E402
+from . import stability_cases as stability
 
 GROUP_ORDER = ["furnace", "scale", "offset", "watertight", "lights", "geometry", "limits",
                "non-finite", "determinism", "llvmpipe"]

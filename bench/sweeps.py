@@ -91,7 +91,7 @@ class Session:
 
 def _open(path, cfg: Config, *, resolution, bounces=None, features_mode="scene", flags=None,
           clear_shader_cache=False) -> Session:
-    from mcpt import shader
+    from mcpt.gpu import shader
     from mcpt.api import prepare
 
     if clear_shader_cache:
@@ -152,7 +152,7 @@ def _render(s: Session, spp: int, seed: int) -> tuple[object, dict]:
 
 
 def gl_info(cfg: Config) -> dict:
-    from mcpt.context import shared_context
+    from mcpt.gpu.context import shared_context
 
     return shared_context(cfg.gl_backend).describe()
 
@@ -167,7 +167,7 @@ def _scene_path(cfg: Config, data: dict, name: str | None = None) -> Path:
 
 
 def bounce_sweep(cfg: Config, log=_noop) -> dict:
-    from mcpt.image import write_image
+    from mcpt.output.image import write_image
 
     path = _scene_path(cfg, scenes.cornell(), "cornell")
     w, h = cfg.bounce_resolution
@@ -316,7 +316,7 @@ def triangle_summary(records: list[dict]) -> dict:
 def load_reference(cfg: Config, path: Path, log=_noop) -> tuple[np.ndarray, dict]:
     """The Mitsuba 3 reference (area-averaged down to the sweep's resolution), or, when it is
     missing, an mcpt rendering at ``self_reference_spp`` with an unrelated seed (said so)."""
-    from mcpt.image import read_exr
+    from mcpt.output.image import read_exr
 
     w, h = cfg.err_resolution
     ref_file = scenes.cornell_reference()

@@ -1,7 +1,7 @@
 """``mcpt bench``: timing sweeps, error against run time, plots and a Markdown report.
 
-Thin: options in, ``bench.suite.run`` out. The benchmark code lives in the source tree's
-``bench/`` folder (next to ``cli/``), not in the installed package.
+Thin: options in, ``mcpt.bench.suite.run`` out. The benchmark code lives in the source tree's
+``bench/`` folder, installed as the ``mcpt.bench`` package, so it runs from a wheel too.
 """
 
 from __future__ import annotations
@@ -11,24 +11,9 @@ from pathlib import Path
 
 import click
 
-from mcpt.context import BACKENDS
+from mcpt.gpu.context import BACKENDS
 
-from .main import main, reports_errors
-
-_ROOT = Path(__file__).resolve().parent.parent
-
-
-def _import_bench():
-    if not (_ROOT / "bench" / "suite.py").exists():
-        raise click.ClickException(
-            f"mcpt bench needs the source tree's bench/ folder (looked in {_ROOT}); "
-            "run it from a checkout (pip install -e .)")
-    if str(_ROOT) not in sys.path:
-        sys.path.insert(0, str(_ROOT))
-    from bench import suite, sweeps
-
-    return suite, sweeps
-
+from .group import main, reports_errors
 
 @main.command()
 @click.option("--quick/--full", default=True, show_default=True,
@@ -45,7 +30,8 @@ def _import_bench():
 @reports_errors
 def bench(quick, only, out, seed, gl_backend, brute_cap):
     """Benchmark sweeps (bounces, triangles, error vs time, paths/s) with plots and a report."""
-    suite, sweeps = _import_bench()
+    from mcpt.bench import suite, sweeps  # imported here: `mcpt render` need not load it
+
     try:
         names = suite.resolve(list(only) or None)
     except ValueError as exc:

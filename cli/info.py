@@ -6,7 +6,7 @@ import json
 
 import click
 
-from .main import main, reports_errors
+from .group import main, reports_errors
 from .options import render_options
 
 

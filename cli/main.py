@@ -1,115 +1,12 @@
-"""``mcpt`` entry point: the click group and the error boundary shared by every command."""
+"""``mcpt`` entry point: the click group with every command registered.
+
+Each command lives in its own module and registers itself on the group of cli/group.py when
+imported; this module only imports them, so no command module imports another.
+"""
 
 from __future__ import annotations
 
-import functools
-import logging
-import sys
+from . import bench, info, render  # noqa: F401  (each adds its command to `main`)
+from .group import main
 
-import click
-
-from mcpt import __version__
-
-
-def user_errors():
-    """Exception types whose message is meant for the user: printed as one line, exit status 2."""
-    from mcpt.context import GLError
-    from mcpt.image import ImageError
-    from mcpt.loader import LoadError
-    from mcpt.mesh import MeshError
-    from mcpt.render import RenderError
-    from mcpt.scene import SceneError
-    from mcpt.shader import ShaderError
-    from mcpt.tbo import TBOError
-
-    return (GLError, ImageError, LoadError, MeshError, RenderError, SceneError, ShaderError, TBOError)
-
-
-def _verbosity() -> int:
-    ctx = click.get_current_context(silent=True)
-    return int(ctx.find_root().params.get("verbose") or 0) if ctx else 0
-
-
-def reports_errors(fn):
-    """Turn library errors into one 'mcpt: error: ...' line and a non-zero exit (2).
-
-    Anything else is a bug, still reported on one line (exit 1) unless -vv asks for the
-    traceback; Ctrl-C exits 130. No command writes its image before the work is done, and images
-    are renamed into place when complete (mcpt/image.py), so no failure leaves a partial image.
-    """
-
-    @functools.wraps(fn)
-    def wrapper(*args, **kwargs):
-        try:
-            return fn(*args, **kwargs)
-        except user_errors() as exc:
-            click.echo(f"mcpt: error: {exc}", err=True)
-            sys.exit(2)
-        except KeyboardInterrupt:
-            click.echo("mcpt: interrupted", err=True)
-            sys.exit(130)
-        except Exception as exc:  # noqa: BLE001 - the error boundary of the CLI
-            if _verbosity() >= 2:
-                raise
-            msg = " ".join(str(exc).split())
-            click.echo(f"mcpt: internal error: {type(exc).__name__}: {msg} (run with -vv for the "
-                       "traceback)", err=True)
-            sys.exit(1)
-
-    return wrapper
-
-
-class _OneLineUsageError(click.UsageError):
-    """click's usage errors print a usage block; mcpt prints one line naming the option."""
-
-    def show(self, file=None) -> None:
-        hint = f" (see '{self.ctx.command_path} --help')" if self.ctx is not None else ""
-        click.echo(f"mcpt: error: {self.format_message()}{hint}", file=file, err=True)
-
-
-class _Group(click.Group):
-    def parse_args(self, ctx, args):
-        try:
-            return super().parse_args(ctx, args)
-        except click.UsageError as exc:
-            raise _OneLineUsageError(exc.message, exc.ctx) from None
-
-    def invoke(self, ctx):
-        try:
-            return super().invoke(ctx)
-        except click.UsageError as exc:  # a subcommand's bad option or argument
-            raise _OneLineUsageError(exc.format_message(), exc.ctx) from None
-
-
-class _ClickLogHandler(logging.Handler):
-    """Log records as 'mcpt: warning: ...' lines on the CURRENT stderr (click's), so they reach
-    the terminal and click's test runner alike (logging.basicConfig keeps the first stream)."""
-
-    def emit(self, record: logging.LogRecord) -> None:
-        try:
-            click.echo(f"mcpt: {record.levelname.lower()}: {record.getMessage()}", err=True)
-        except Exception:  # pragma: no cover - logging must never raise
-            self.handleError(record)
-
-
-def _configure_logging(verbose: int) -> None:
-    log = logging.getLogger("mcpt")
-    if not any(isinstance(h, _ClickLogHandler) for h in log.handlers):
-        log.addHandler(_ClickLogHandler())
-    log.setLevel(logging.WARNING if verbose == 0 else logging.INFO if verbose == 1 else logging.DEBUG)
-
-
-@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="mcpt")
-@click.option("-v", "--verbose", count=True, help="More log output (-v info, -vv debug).")
-def main(verbose: int) -> None:
-    """mcpt: a Monte Carlo path tracer on headless OpenGL."""
-    _configure_logging(verbose)
-
-
-def _register() -> None:
-    from . import info, render  # noqa: F401  (each module adds its command to `main`)
-    from . import bench  # noqa: F401  (mcpt bench: bench/ sweeps, issue #5)
-
-
-_register()
+__all__ = ["main"]

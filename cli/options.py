@@ -7,7 +7,7 @@ import re
 
 import click
 
-from mcpt.context import BACKENDS
+from mcpt.gpu.context import BACKENDS
 
 
 def parse_resolution(ctx, param, value):

@@ -10,7 +10,7 @@ import click
 
 from mcpt import __version__
 
-from .main import main, reports_errors
+from .group import main, reports_errors
 from .options import finite, positive_finite, render_options
 
 
@@ -51,7 +51,7 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
            clamp, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     from mcpt.api import render_scene
-    from mcpt.image import check_output_path
+    from mcpt.output.image import check_output_path
 
     for output in outputs:
         check_output_path(output)  # fail before minutes of rendering, not after

@@ -1,6 +1,6 @@
 """``python -m mcpt`` runs the command line."""
 
-from cli.main import main
+from mcpt.cli.main import main
 
 if __name__ == "__main__":
     main(prog_name="mcpt")

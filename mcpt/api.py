@@ -1,7 +1,16 @@
 """High-level entry points used by the CLI, the benchmarks and the tests.
 
-``prepare`` goes scene file -> (GL context, world, features, renderer); ``render_scene`` adds the
-passes and writes the image with its metadata.
+The walk from a scene file to pixels, each room entered once, in this order:
+
+    load      mcpt.scene.load_scene            YAML -> validated Scene (+ command-line overrides)
+    build     mcpt.shapes.world.load_world     meshes, materials, BVH, lights -> World
+    derive    mcpt.gpu.features.for_world      what the world needs -> Features (the define set)
+    pack      mcpt.gpu.pack.pack               World + Features -> buffers and uniforms
+    compile   mcpt.gpu.render.Renderer         limits checked, program compiled, buffers uploaded
+    render    Renderer.render                  passes averaged in float64
+    write     mcpt.output.image.write_image    EXR / PNG, atomically
+
+``prepare`` does the first five; ``render_scene`` adds the passes and writes the images.
 """
 
 from __future__ import annotations
@@ -11,12 +20,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import __version__
-from .context import GLContext, shared_context
-from .features import Features, loop_limit_for
-from .image import check_output_path, write_image
-from .loader import World, load_world
-from .render import Renderer, RenderResult
+from .gpu.context import GLContext, shared_context
+from .gpu.features import Features, for_world, loop_limit_for
+from .gpu.pack import pack
+from .gpu.render import Renderer, RenderResult
+from .output.image import check_output_path, write_image
 from .scene import Scene, load_scene
+from .shapes.world import World, load_world
 
 @dataclass
 class Prepared:
@@ -38,10 +48,10 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     gl = shared_context(gl_backend)
     world = load_world(scene)
     flags = {"loop_limit": loop_limit_for(gl.renderer), **(feature_flags or {})}
-    feats = world.features(clamp=clamp is not None, **flags)
+    feats = for_world(world, clamp=clamp is not None, **flags)
     if features_mode == "all":
         feats = feats.everything()
-    renderer = Renderer(gl, world, feats)
+    renderer = Renderer(gl, feats, pack(world, feats), clamp=clamp)
     return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0)
 
 
@@ -71,7 +81,7 @@ def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolu
     if progress is not None and hasattr(progress, "pixels"):
         progress.pixels = p.scene.camera.width * p.scene.camera.height
     rs = p.scene.render
-    result = p.renderer.render(rs.spp, rs.seed, progress=progress, clamp=clamp)
+    result = p.renderer.render(rs.spp, rs.seed, progress=progress)
     meta = metadata(p, result)
     p.renderer.release()
     exr_meta = {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}

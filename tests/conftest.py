@@ -13,7 +13,7 @@ SHARED = ROOT.parent / "shared"
 @pytest.fixture(scope="session")
 def gl():
     """The GL context of the back end under test (MCPT_GL_BACKEND: egl, osmesa; default auto)."""
-    from mcpt.context import shared_context
+    from mcpt.gpu.context import shared_context
 
     return shared_context(os.environ.get("MCPT_GL_BACKEND"))
 
@@ -29,8 +29,10 @@ def shared_path(*parts) -> Path:
 def bunny_reference():
     """Bunny triangles, its BVH, 10^4 rays (float32-representable) and the brute-force closest
     hits, computed once per session: the brute force costs ~10 s and two test files share it."""
-    from mcpt.bvh import brute_force_closest_hit, build_bvh
-    from mcpt.mesh import load_mesh
+    from mcpt.shapes.bvh import build_bvh
+
+    from .oracles import brute_force_closest_hit
+    from mcpt.shapes.mesh import load_mesh
 
     mesh = load_mesh(shared_path("models", "stanford-bunny.obj"))
     tris = mesh.vertices[mesh.faces].astype(np.float32).astype(np.float64)

@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from bench import common, scenes, suite, sweeps  # noqa: E402
+from mcpt.bench import common, scenes, suite, sweeps  # noqa: E402
 
 # ------------------------------------------------------------------------------------------------
 # Pure parts

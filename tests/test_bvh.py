@@ -8,9 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import mcpt.bvh as bvh_mod
-from mcpt.bvh import LEAF_FLAG, MAX_STACK, brute_force_closest_hit, build_bvh, bvh_closest_hit
-from mcpt.mesh import load_mesh, merge_meshes
+import mcpt.shapes.bvh as bvh_mod
+from mcpt.shapes.bvh import LEAF_FLAG, MAX_STACK, build_bvh
+from mcpt.shapes.mesh import load_mesh
+
+from .merge import merge_meshes
+from .oracles import brute_force_closest_hit, bvh_closest_hit
 
 from .conftest import bunny_reference
 

@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from mcpt.bvh import build_bvh
-from mcpt.loader import pack_triangles
-from mcpt.mesh import load_mesh
-from mcpt.probe import run_probe
+from mcpt.shapes.bvh import build_bvh
+from mcpt.shapes.geometry import pack_triangles
+from mcpt.shapes.mesh import load_mesh
+from mcpt.bench.probe import run_probe
 
 from .conftest import bunny_reference, shared_path
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cli.main import main
+from mcpt.cli.main import main
 
 from .conftest import ROOT
 
@@ -236,7 +236,7 @@ def test_emission_beyond_float32_is_refused(folder):
 # ---- warnings, not errors --------------------------------------------------------------------
 
 def test_scene_without_lights_warns_and_renders_black(folder):
-    from mcpt.image import read_exr
+    from mcpt.output.image import read_exr
 
     dark = scene_with(folder, "    emission: [1, 1, 1]\n", "    emission: [0, 0, 0]\n")
     r = invoke(dark, "-o", "out.exr")
@@ -261,7 +261,7 @@ def test_a_good_render_writes_the_image_with_usual_permissions(folder):
 # ---- failures after rendering started ---------------------------------------------------------
 
 def test_interrupted_render_leaves_no_image(folder, monkeypatch):
-    from mcpt import render as render_mod
+    from mcpt.gpu import render as render_mod
 
     def interrupted(self, *a, **k):
         raise KeyboardInterrupt
@@ -297,7 +297,7 @@ def test_failed_write_leaves_old_image_and_no_temporary_file(folder, monkeypatch
 
 
 def test_unexpected_exception_is_one_line_and_no_image(folder, monkeypatch):
-    from mcpt import render as render_mod
+    from mcpt.gpu import render as render_mod
 
     def boom(self, *a, **k):
         raise ValueError("something\nunexpected")
@@ -331,7 +331,7 @@ def test_script_refuses_spp_0_with_one_line_and_status_2(folder):
 def test_script_renders_and_reports_dropped_samples(folder):
     """A furnace emitting FLT_MAX: every sample overflows, is dropped and counted, and the
     summary says so; the image is written and finite."""
-    from mcpt.image import read_exr
+    from mcpt.output.image import read_exr
 
     (folder / "sphere.obj").write_bytes((ROOT / "scenes/furnace/sphere_inward.obj").read_bytes())
     text = (SCENE.replace("file: floor.obj", "file: sphere.obj")

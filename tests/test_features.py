@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cli.main import main
+from mcpt.cli.main import main
 from mcpt.api import prepare
 from mcpt.scene import load_scene
 
@@ -65,7 +65,7 @@ SHIPPED = sorted((ROOT / "scenes").glob("*.yaml"))
 def test_every_shipped_scene_compiles_only_what_it_uses(scene_file):
     """Each shipped scene's feature combination compiles and renders on this back end (CI runs
     the suite on EGL and on OSMesa), and its shader source holds only the material code it uses."""
-    from mcpt.shader import Source
+    from mcpt.gpu.shader import Source
 
     p = prepare(scene_file, resolution=(8, 8), bounces=2)
     try:

@@ -1,4 +1,4 @@
-"""Golden images of the shipped scenes, judged statistically (mcpt/golden.py, issue #6).
+"""Golden images of the shipped scenes, judged statistically (tests/goldens.py, issue #6).
 
 Each golden in tests/golden/ is a reference mean and per-sample variance made with 4096 spp;
 the test renders the scene FRESH with another seed and few samples and runs the per-pixel
@@ -16,7 +16,7 @@ import shutil
 import numpy as np
 import pytest
 
-from mcpt import golden
+from tests import goldens as golden
 
 from .conftest import ROOT
 

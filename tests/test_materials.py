@@ -5,12 +5,15 @@ test_materials_render.py; chi-square tests of the sampling routines in test_samp
 import math
 
 import numpy as np
+from mcpt.gpu.features import for_world
+from mcpt.gpu.pack import pack
 import pytest
 
-from mcpt.loader import load_world, octahedral_decode, octahedral_encode, pack_normals
-from mcpt.materials import fdr_internal, fresnel_diffuse_reflectance
+from mcpt.shading.normals import octahedral_decode, octahedral_encode, pack_normals
+from mcpt.shapes.world import load_world
+from mcpt.shading.materials import fdr_internal, fresnel_diffuse_reflectance
 from mcpt.scene import SceneError, parse_scene
-from mcpt.textures import load_texture, lookup, pack_textures, srgb_to_linear
+from mcpt.shading.texture import load_texture, lookup, pack_textures, srgb_to_linear
 
 from .conftest import ROOT, shared_path
 from .test_materials_util import floats, probe, sphere_grid, uniform_numbers
@@ -251,10 +254,10 @@ def test_diffuse_scene_uploads_no_normals_uvs_or_material_parameters():
     from mcpt.scene import load_scene
 
     world = load_world(load_scene(ROOT / "scenes" / "cornell-box.yaml"))
-    f = world.features()
+    f = for_world(world)
     assert not (f.conductor or f.dielectric or f.plastic or f.textures or f.smooth_normals)
     assert world.normals is None and world.uvs is None and not world.textures
-    bufs = world.buffers(f)
+    bufs = pack(world, f).buffers
     assert set(bufs) == {"tris", "nodes", "materials", "lights"} - ({"nodes"} if not f.bvh else set())
     assert bufs["materials"].shape[0] == 2 * len(world.materials.names)  # 2 texels per material
     d = f.defines()
@@ -278,12 +281,12 @@ def test_features_follow_the_materials_a_scene_uses(tmp_path):
   - {{file: {SPHERE}, material: glass, transform: {{translate: [0, 2, 0]}}}}
   - {{file: {BOX}/light.obj, material: lamp}}""", tmp_path)
     world = load_world(s)
-    f = world.features()
+    f = for_world(world)
     assert f.diffuse and f.conductor and f.microfacet and f.dielectric and f.absorption
     assert not f.plastic  # defined but used by no mesh
     assert f.textures and f.smooth_normals and f.material_texels == 4
     assert len(world.textures) == 1 and world.uvs.shape == (world.n_triangles, 3, 2)
-    bufs = world.buffers(f)
+    bufs = pack(world, f).buffers
     assert {"normals", "uvs", "textures"} <= set(bufs)
     mt = world.materials
     glass = mt.names.index("glass")
@@ -306,8 +309,8 @@ MATERIAL_CODE = ("dielectric_sample", "conductor_sample", "plastic_sample", "fre
 
 
 def test_diffuse_scene_shader_source_has_no_other_material_code():
-    from mcpt.features import Features
-    from mcpt.shader import Source
+    from mcpt.gpu.features import Features
+    from mcpt.gpu.shader import Source
 
     uber = Source("pathtrace.frag", Features(bounces=8).everything().preamble()).text
     assert all(word in uber for word in MATERIAL_CODE)

@@ -5,9 +5,10 @@ Every render here goes through the real path tracer (glsl/pathtrace.frag) on sma
 import os
 
 import numpy as np
+from mcpt.gpu.features import for_world
 import pytest
 
-from mcpt.loader import load_world
+from mcpt.shapes.world import load_world
 from mcpt.scene import load_scene, parse_scene
 
 from .conftest import ROOT
@@ -19,7 +20,7 @@ SEED_OFFSET = int(os.environ.get("MCPT_TEST_SEED", "0"))  # vary to check the te
 
 def render(gl, scene, spp, seed, *, bounces=None, variance=True, **flags):
     world = load_world(scene)
-    feats = world.features(bounces=bounces, variance=variance, **flags)
+    feats = for_world(world, bounces=bounces, variance=variance, **flags)
     r = renderer(gl, world, feats)
     try:
         return r.render(spp, seed + SEED_OFFSET), feats

@@ -11,9 +11,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from mcpt.gpu.pack import pack
 
-from mcpt.features import Features
-from mcpt.probe import run_probe
+from mcpt.gpu.features import Features
+from mcpt.bench.probe import run_probe
 
 MODE = {"sample": 0, "weight": 1, "eval": 2, "light": 3, "bary": 4, "texture": 5, "normal": 6,
         "eta2": 7}
@@ -155,6 +156,6 @@ def sphere_histogram(w: np.ndarray, n_theta: int, n_phi: int) -> np.ndarray:
 
 def renderer(gl, world, features):
     """A Renderer for ``world`` with ``features`` (which may differ from the world's own)."""
-    from mcpt.render import Renderer
+    from mcpt.gpu.render import Renderer
 
-    return Renderer(gl, world, features)
+    return Renderer(gl, features, pack(world, features))

@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcpt.mesh import Mesh, MeshError, MeshMaterial, _assemble, _Part, load_mesh, merge_meshes
+from mcpt.shapes.mesh import Mesh, MeshError, MeshMaterial, _assemble, _Part, load_mesh
+
+from .merge import merge_meshes
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CORNELL = SHARED / "scenes-ref" / "cornell"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mcpt.api import prepare
-from mcpt.image import read_exr
+from mcpt.output.image import read_exr
 from mcpt.scene import load_scene
 
 from .conftest import ROOT, shared_path
@@ -70,7 +70,7 @@ def test_same_seed_same_image_different_seed_different_image():
 
 
 def test_passes_never_reuse_random_numbers():
-    from mcpt.sampler import RandomNumbers
+    from mcpt.shading.sampler import RandomNumbers
 
     r = RandomNumbers(seed=1, n_pixels=64, dims=14)
     a, b = r.for_pass(0), r.for_pass(1)

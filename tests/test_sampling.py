@@ -11,8 +11,8 @@ import zlib
 import numpy as np
 import pytest
 
-from mcpt.lights import build_lights
-from mcpt.materials import fdr_internal, fresnel_dielectric
+from mcpt.shading.lights import build_lights
+from mcpt.shading.materials import fdr_internal, fresnel_dielectric
 
 from .test_materials_util import (cell_probabilities, chi2_test, floats, probe, sidak,
                                   sphere_grid, sphere_histogram, uniform_numbers)

@@ -4,9 +4,9 @@ import re
 
 import pytest
 
-from mcpt import shader
-from mcpt.features import Features
-from mcpt.shader import ShaderError, Source, glsl_dir
+from mcpt.gpu import shader
+from mcpt.gpu.features import Features
+from mcpt.gpu.shader import ShaderError, Source, glsl_dir
 
 
 def test_every_feature_define_used_in_glsl_is_declared():

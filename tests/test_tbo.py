@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from mcpt.probe import run_probe
-from mcpt.tbo import TBOError, check_size
+from mcpt.bench.probe import run_probe
+from mcpt.gpu.tbo import TBOError, check_size
 
 
 def test_every_texel_round_trips_bit_for_bit(gl):

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .context import GL_TEXTURE0, GL_TEXTURE_BUFFER, GLContext
+from ..errors import McptError
 
 GL_RGBA32F = 0x8814
 GL_RGBA32UI = 0x8D70
@@ -39,7 +40,7 @@ UNITS = {
 }
 
 
-class TBOError(ValueError):
+class TBOError(McptError, ValueError):
     """A buffer does not fit the GL limits; the message says what would fit."""
 
 

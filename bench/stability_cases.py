@@ -12,7 +12,7 @@ of the environment returning the reason and the fix (or None where the case is e
 e.g. on a GPU without llvmpipe's loop limit). pytest marks such a case ``xfail(strict=True)``,
 so fixing the cause turns it into a failure that asks for the mark to go.
 
-Statistics: renders are compared with :func:`mcpt.golden.z_test` (per pixel-channel z-test with a
+Statistics: renders are compared with :func:`mcpt.output.stats.z_test` (per pixel-channel z-test with a
 Šidák-corrected threshold, 99.75 % must accept, plus the image mean within 4 standard errors).
 Everything is seeded, and llvmpipe is bit-deterministic, so a case gives the same numbers on
 every run on one machine.
@@ -35,14 +35,14 @@ from typing import Callable
 
 import numpy as np
 
-from .golden import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
+from mcpt.gpu.features import LLVMPIPE_LOOP_LIMIT, for_world, random_dims
+from mcpt.gpu.pack import pack
+from mcpt.output.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
+from mcpt.scene.shipped import shipped
 
-from .features import LLVMPIPE_LOOP_LIMIT  # noqa: E402  (measured by the llvmpipe-loop-limit case)
-
-ROOT = Path(__file__).resolve().parent.parent
-SPHERE_OBJ = ROOT / "scenes" / "furnace" / "sphere_inward.obj"
-CORNELL_YAML = ROOT / "scenes" / "cornell-box.yaml"
-FURNACE_YAML = ROOT / "scenes" / "furnace.yaml"
+SPHERE_OBJ = shipped("furnace/sphere_inward.obj")
+CORNELL_YAML = shipped("cornell-box.yaml")
+FURNACE_YAML = shipped("furnace.yaml")
 FLT_MAX = float(np.finfo(np.float32).max)
 
 
@@ -115,7 +115,7 @@ class Env:
 
     @cached_property
     def gl(self):
-        from .context import shared_context
+        from mcpt.gpu.context import shared_context
 
         return shared_context(self.gl_backend or os.environ.get("MCPT_GL_BACKEND"))
 
@@ -141,7 +141,7 @@ def write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray) -> Path:
 def make_scene(env: Env, name: str, *, camera: dict, meshes: list[dict], materials: dict,
                bounces: int = 8, spp: int = 16, seed: int = 0):
     """A validated Scene from plain data (JSON is YAML, so this goes through parse_scene)."""
-    from .scene import parse_scene
+    from mcpt.scene import parse_scene
 
     doc = {"name": name, "camera": camera, "render": {"spp": spp, "bounces": bounces, "seed": seed},
            "materials": materials,
@@ -151,7 +151,7 @@ def make_scene(env: Env, name: str, *, camera: dict, meshes: list[dict], materia
 
 def sampling_flags(mode: str) -> dict:
     """Feature flags selecting the light-sampling strategy ("mis", "nee", "bsdf")."""
-    from .features import Features
+    from mcpt.gpu.features import Features
 
     names = {f.name for f in dataclasses.fields(Features)}
     if "sampling" in names:
@@ -164,8 +164,8 @@ def sampling_flags(mode: str) -> dict:
 def render(env: Env, scene, spp: int, seed: int = 1, *, max_random_per_tile: int | None = None,
            chunk: int = 64, sampling: str | None = None, **flags):
     """(RenderResult, Prepared) with per-pixel variance; the renderer is released."""
-    from .api import prepare
-    from .render import Renderer
+    from mcpt.api import prepare
+    from mcpt.gpu.render import Renderer
 
     if sampling is not None:
         flags.update(sampling_flags(sampling))
@@ -174,7 +174,7 @@ def render(env: Env, scene, spp: int, seed: int = 1, *, max_random_per_tile: int
     try:
         if max_random_per_tile is not None:
             renderer.release()
-            renderer = Renderer(p.gl, p.world, p.features, max_random_per_tile=max_random_per_tile)
+            renderer = Renderer(p.gl, p.features, pack(p.world, p.features), max_random_per_tile=max_random_per_tile)
         result = renderer.render(spp, seed, chunk=chunk)
     finally:
         renderer.release()
@@ -203,7 +203,7 @@ def furnace_expected(albedo: float, bounces: int, le: float = 1.0) -> float:
 
 def sphere_mesh() -> tuple[np.ndarray, np.ndarray]:
     """The shipped geodesic sphere (radius 1, 1280 triangles, wound inward)."""
-    from .mesh import load_mesh
+    from mcpt.shapes.mesh import load_mesh
 
     m = load_mesh(SPHERE_OBJ)
     return np.array(m.vertices), np.array(m.faces)
@@ -324,7 +324,7 @@ _furnace_case("furnace-6912-emitters", 0.5, 4, spp=64, group="lights",
 @case("furnace-shipped-scene", "furnace")
 def _shipped_furnace(env: Env) -> Outcome:
     """scenes/furnace.yaml as shipped (albedo 0.8, 8 bounces) against scene.json's value."""
-    from .scene import load_scene
+    from mcpt.scene import load_scene
 
     sc = load_scene(FURNACE_YAML).with_overrides(resolution=(16, 16))
     res, _ = render(env, sc, 64, seed=12)
@@ -451,8 +451,8 @@ def trace(env: Env, world, origins: np.ndarray, dirs: np.ndarray):
     (t, triangle index in the world's order, or -1)."""
     from .probe import run_probe
 
-    feats = world.features()
-    bufs = world.buffers(feats)
+    feats = for_world(world)
+    bufs = pack(world, feats).buffers
     tbos = {k: bufs[k] for k in ("tris", "nodes") if k in bufs}
     probe = np.zeros((2 * len(origins), 4), np.uint32)
     probe[0::2, :3] = np.asarray(origins, np.float32).view(np.uint32)
@@ -466,7 +466,7 @@ def trace(env: Env, world, origins: np.ndarray, dirs: np.ndarray):
 
 def mesh_world(env: Env, name: str, vertices, faces, *, camera=(0.0, 0.0, 0.0), look=(0, 0, -1)):
     """A World holding one mesh (written with full float64 precision), camera at ``camera``."""
-    from .loader import load_world
+    from mcpt.shapes.world import load_world
 
     path = write_obj(env.file(f"{name}.obj"), vertices, faces)
     cam = [float(x) for x in camera]
@@ -670,7 +670,7 @@ def _tiny_light_case(side: float):
     def run(env: Env) -> Outcome:
         """A square light of side ``side``, radiance 1/side^2 (same power), 1 unit above a diffuse
         floor; the camera looks straight down from below the light. Direct light only."""
-        from .camera import basis
+        from mcpt.shading.camera import basis
 
         rho, height, cam_y = 0.5, 1.0, 0.5
         lv, lf = _square((0.0, height, 0.0), side, -1.0)
@@ -783,7 +783,7 @@ def star_cluster(n: int, radius: float = 1.0, z: float = -3.0):
 def _cluster_bvh(env: Env) -> Outcome:
     """10^6 triangles with one common centroid: the median builder still halves by position, so
     the depth stays at ceil(log2(F / 4)) + 1 and the traversal stack (depth + 2) never overflows."""
-    from .bvh import MAX_STACK, build_bvh
+    from mcpt.shapes.bvh import MAX_STACK, build_bvh
 
     v, f = star_cluster(1_000_000)
     t0 = time.perf_counter()
@@ -800,7 +800,7 @@ def _cluster_case(n: int, known=None):
     def run(env: Env) -> Outcome:
         """The cluster as a black disk in front of an emissive wall, bounces 0: each pixel is the
         fraction of its area outside the disk (binomial noise), computed on a 16x16 sub-grid."""
-        from .camera import basis
+        from mcpt.shading.camera import basis
 
         v, f = star_cluster(n, radius=1.0, z=-3.0)
         wall = np.array([[-9.0, -9.0, -5.0], [9.0, -9.0, -5.0], [9.0, 9.0, -5.0], [-9.0, 9.0, -5.0]])
@@ -843,7 +843,7 @@ def _offset_in_files(env: Env) -> Outcome:
     """The Cornell box with 1e5 added to every coordinate IN the OBJ files (camera moved too).
     Assimp parses OBJ coordinates as float32 (1/128 steps at 1e5); mcpt/mesh.py reads them back
     in float64 so the camera-relative rebasing can keep them."""
-    from .mesh import load_mesh
+    from mcpt.shapes.mesh import load_mesh
     import yaml
 
     off = np.array([1e5, 0.5e5, -0.25e5])
@@ -859,7 +859,7 @@ def _offset_in_files(env: Env) -> Outcome:
 
 def _duplicated_files(env: Env, names, copies: int = 2) -> dict:
     """Cornell mesh files with every face repeated ``copies`` times (same vertices)."""
-    from .mesh import load_mesh
+    from mcpt.shapes.mesh import load_mesh
 
     out = {}
     for n in names:
@@ -912,14 +912,14 @@ class LimitedGL:
 @case("tbo-over-limit-refused", "limits")
 def _tbo_limit(env: Env) -> Outcome:
     """The Cornell box on a GPU that allows only 100 buffer texels: refused, limit quoted."""
-    from .api import prepare
-    from .render import Renderer
-    from .tbo import TBOError
+    from mcpt.api import prepare
+    from mcpt.gpu.render import Renderer
+    from mcpt.gpu.tbo import TBOError
 
     p = prepare(cornell_scene(env, "tbo-limit", res=8), gl_backend=env.gl_backend)
     p.renderer.release()
     try:
-        Renderer(LimitedGL(p.gl, max_texture_buffer_size=100), p.world, p.features).release()
+        Renderer(LimitedGL(p.gl, max_texture_buffer_size=100), p.features, pack(p.world, p.features)).release()
         return Outcome("TBOError quoting GL_MAX_TEXTURE_BUFFER_SIZE = 100", "accepted", False)
     except TBOError as exc:
         msg = str(exc)
@@ -930,7 +930,7 @@ def _tbo_limit(env: Env) -> Outcome:
 @case("tbo-limit-queried", "limits")
 def _tbo_limit_real(env: Env) -> Outcome:
     """The real limit is read from the driver and one texel over it is refused before upload."""
-    from .tbo import TBOError, check_size
+    from mcpt.gpu.tbo import TBOError, check_size
 
     limit = env.gl.limits()["max_texture_buffer_size"]
     try:
@@ -945,7 +945,7 @@ def _tbo_limit_real(env: Env) -> Outcome:
 @case("resolution-over-scene-limit", "limits")
 def _resolution_scene(env: Env) -> Outcome:
     """--resolution 16385x16 is refused by the scene validation, naming the key and the limit."""
-    from .scene import MAX_RESOLUTION, SceneError, load_scene
+    from mcpt.scene import MAX_RESOLUTION, SceneError, load_scene
 
     try:
         load_scene(FURNACE_YAML).with_overrides(resolution=(MAX_RESOLUTION + 1, 16))
@@ -959,14 +959,14 @@ def _resolution_scene(env: Env) -> Outcome:
 @case("resolution-over-gl-limit", "limits")
 def _resolution_gl(env: Env) -> Outcome:
     """A 64x64 image on a GPU whose textures and viewport stop at 32: refused with the limit."""
-    from .api import prepare
-    from .render import Renderer, RenderError
+    from mcpt.api import prepare
+    from mcpt.gpu.render import Renderer, RenderError
 
     p = prepare(cornell_scene(env, "gl-size", res=64), gl_backend=env.gl_backend)
     p.renderer.release()
     try:
-        Renderer(LimitedGL(p.gl, max_texture_size=32, max_viewport_dims=[32, 32]), p.world,
-                 p.features).release()
+        Renderer(LimitedGL(p.gl, max_texture_size=32, max_viewport_dims=[32, 32]), p.features,
+                 pack(p.world, p.features)).release()
         return Outcome("RenderError quoting the limit 32", "accepted (64x64 targets allocated)", False)
     except RenderError as exc:
         return Outcome("RenderError quoting the limit 32", str(exc), "32" in str(exc))
@@ -976,10 +976,10 @@ def _resolution_gl(env: Env) -> Outcome:
 def _random_row(env: Env) -> Outcome:
     """16384 pixels x (2 + 6 x 1000 bounces) random numbers per image row exceed one buffer:
     refused before any allocation, with both numbers."""
-    from .render import RenderError, plan_tiles
+    from mcpt.gpu.render import RenderError, plan_tiles
 
     limit = env.gl.limits()["max_texture_buffer_size"]
-    dims = 2 + 6 * 1000
+    dims = random_dims(1000)
     try:
         plan_tiles(16384, 16, dims, limit)
         return Outcome("RenderError", "accepted", False)
@@ -1003,49 +1003,16 @@ def _overflow(env: Env) -> Outcome:
                    res.dropped_samples == n and finite)
 
 
-def run_one_pixel(env: Env, fs: str, uniforms: dict) -> np.ndarray:
-    """Run a fragment shader (full source, ``out uvec4`` at location 0) on one pixel: its uvec4."""
-    import moderngl
-
-    vs = ("#version 430 core\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);"
-          " gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }")
-    ctx = env.gl.ctx
-    prog = ctx.program(vertex_shader=vs, fragment_shader=fs)
-    tex = ctx.texture((1, 1), 4, dtype="u4")
-    fbo = ctx.framebuffer(color_attachments=[tex])
-    vao = ctx.vertex_array(prog, [])
-    try:
-        for k, val in uniforms.items():
-            prog[k].value = val
-        fbo.use()
-        ctx.disable(moderngl.BLEND)
-        vao.render(moderngl.TRIANGLES, vertices=3)
-        return np.frombuffer(fbo.read(components=4, dtype="u4"), np.uint32).copy()
-    finally:
-        for o in (vao, fbo, tex, prog):
-            o.release()
-
-
 @case("non-finite-test-under-fast-math", "non-finite")
 def _nonfinite_probe(env: Env) -> Outcome:
     """common.glsl's non_finite() on runtime NaN (0/0), +-Inf (1/0, FLT_MAX * 2) and on finite
     extremes (FLT_MAX, a denormal, 0): llvmpipe's fast-math folds isnan()/isinf(), the bit test
     must not be."""
-    from .shader import glsl_dir
+    from .probe import run_probe
 
-    common = (glsl_dir() / "common.glsl").read_text()
-    fs = ("#version 430 core\n" + common + """
-uniform float u_zero; uniform float u_one; uniform float u_max; uniform float u_tiny;
-layout(location = 0) out uvec4 o;
-void main() {
-    float v[8] = float[8](u_zero / u_zero, u_one / u_zero, -u_one / u_zero, u_max * 2.0,
-                          u_max, u_tiny, u_zero, -u_max);
-    uint bits = 0u;
-    for (int i = 0; i < 8; ++i) if (non_finite(v[i])) bits |= 1u << i;
-    o = uvec4(bits, 0u, 0u, 0u);
-}""")
-    bits = int(run_one_pixel(env, fs, {"u_zero": 0.0, "u_one": 1.0, "u_max": FLT_MAX,
-                                       "u_tiny": 1e-40})[0])
+    uniforms = {"u_zero": 0.0, "u_one": 1.0, "u_max": FLT_MAX, "u_tiny": 1e-40}
+    bits = int(run_probe(env.gl, "probe_nonfinite.frag", np.zeros((1, 4), np.uint32), 1,
+                         uniforms=uniforms)[0, 0])
     want = 0b00001111
     flags = "".join("1" if bits >> i & 1 else "0" for i in range(8))
     return Outcome("NaN, +Inf, -Inf, 2 FLT_MAX flagged; FLT_MAX, denormal, 0, -FLT_MAX not: 11110000",
@@ -1057,8 +1024,8 @@ void main() {
 @case("same-seed-bit-identical-exr", "determinism")
 def _same_seed(env: Env) -> Outcome:
     """Two renders to EXR with the same seed: bit-identical pixels; another seed: different."""
-    from .api import render_scene
-    from .image import read_exr
+    from mcpt.api import render_scene
+    from mcpt.output.image import read_exr
 
     sc = cornell_scene(env, "det", res=16)
     imgs = []
@@ -1079,7 +1046,7 @@ def _tiles(env: Env) -> Outcome:
     two renders agree statistically."""
     sc = cornell_scene(env, "tiles")
     ref = cornell_reference(env)
-    dims = 2 + 6 * sc.render.bounces
+    dims = random_dims(sc.render.bounces)
     res, _ = render(env, sc, CORNELL_SPP, seed=6, max_random_per_tile=32 * 5 * dims)
     zt = compare_images(res, ref, res.spp, ref.spp)
     return Outcome(f"{res.setup['tiles']} tiles vs 1: z-test passes",
@@ -1104,11 +1071,10 @@ def _chunks(env: Env) -> Outcome:
 def _loop_limit(env: Env) -> Outcome:
     """How many loop iterations one fragment may run: llvmpipe stops every loop once a pixel has
     taken 65535 back-edges in total (and says nothing). Documents the limit the deep cases hit."""
-    fs = """#version 430 core
-uniform int u_n;
-layout(location = 0) out uvec4 o;
-void main() { uint c = 0u; for (int i = 0; i < u_n; ++i) c++; o = uvec4(c, 0u, 0u, 0u); }"""
-    n = int(run_one_pixel(env, fs, {"u_n": 100_000})[0])
+    from .probe import run_probe
+
+    n = int(run_probe(env.gl, "probe_loop.frag", np.zeros((1, 4), np.uint32), 1,
+                      uniforms={"u_n": 100_000})[0, 0])
     want = LLVMPIPE_LOOP_LIMIT if env.llvmpipe else 100_000
     return Outcome(f"{want} of 100000 iterations ({'llvmpipe' if env.llvmpipe else 'no limit'})",
                    f"{n}", n == want)

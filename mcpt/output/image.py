@@ -14,10 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import McptError
+
 FORMATS = (".exr", ".png")
 
 
-class ImageError(ValueError):
+class ImageError(McptError, ValueError):
     pass
 
 

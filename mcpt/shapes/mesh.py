@@ -9,9 +9,7 @@ counted, because they can never be hit and only cost BVH space.
 Units: positions are in scene units (whatever the file uses, times the transform); normals are
 unit vectors; UVs are the file's raw texture coordinates (OBJ: v points up, no flip applied).
 
-Combining meshes: `merge_meshes` concatenates several loaded meshes into one (vertex indices
-offset, material ids remapped to the caller's global material table), so a scene can be turned
-into one triangle array for `mcpt.bvh.build_bvh` without a per-object Python loop over triangles.
+OBJ-specific checks Assimp does not make live in mcpt/shapes/obj.py.
 
 assimp-py 1.1 facts this module relies on (see shared/research/anchors-ecosystem.md, A1):
   * `import_file(str, flags)` takes positional arguments only and a `str` path;
@@ -25,15 +23,16 @@ assimp-py 1.1 facts this module relies on (see shared/research/anchors-ecosystem
 from __future__ import annotations
 
 import logging
-import math
 import re
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Mesh", "MeshError", "MeshMaterial", "load_mesh", "merge_meshes"]
+from ..errors import McptError
+from . import obj
+
+__all__ = ["Mesh", "MeshError", "MeshMaterial", "load_mesh"]
 
 log = logging.getLogger("mcpt")
 
@@ -47,7 +46,7 @@ _ASSIMP_DEFAULT_MATERIAL = "DefaultMaterial"
 _ASSIMP_PREFIX = re.compile(r"^Assimp error loading '.*?': ")
 
 
-class MeshError(Exception):
+class MeshError(McptError):
     """A mesh file cannot be used: unreadable, unsupported, or geometrically invalid."""
 
 
@@ -162,7 +161,9 @@ def load_mesh(
         # Assimp's JoinIdenticalVertices can merge a NaN vertex into another one (NaN compares
         # unequal), which hides it or even yields a plausible wrong triangle: look first, and
         # name the line.
-        _check_obj_vertices(path)
+        bad = obj.bad_vertex(path)
+        if bad:
+            raise MeshError(bad)
 
     try:
         scene = assimp.import_file(str(path), flags)
@@ -178,7 +179,7 @@ def load_mesh(
         if "No output meshes" in message or "contains no faces" in message:
             raise MeshError(f"{path}: contains no triangles ({message})") from exc
         if is_obj and ("index" in message.lower()):
-            where = _obj_bad_face(path)
+            where = obj.bad_face(path)
             if where:
                 raise MeshError(where) from exc
         raise MeshError(f"{path}: cannot load mesh: {message}") from exc
@@ -206,71 +207,8 @@ def load_mesh(
     if not parts:
         raise MeshError(f"{path}: contains no triangles")
     if is_obj:
-        _restore_obj_precision(path, parts)
+        obj.restore_precision(path, parts)
     return _assemble(path, parts, materials, matrix, need_normals, need_uvs)
-
-
-def merge_meshes(
-    parts: Sequence[tuple[Mesh, Sequence[int] | np.ndarray | None]],
-    name: str = "merged",
-) -> Mesh:
-    """Concatenate meshes into one, offsetting vertex indices and remapping material ids.
-
-    Args:
-        parts: `(mesh, material_id_map)` pairs. `material_id_map[k]` is the id in the result
-            of the mesh's local material k (an int sequence of length `len(mesh.materials)`),
-            typically an index into the caller's scene-wide material table. With None the
-            mesh's materials are appended after the highest id used so far.
-        name: name of the merged mesh.
-
-    Returns:
-        A `Mesh` whose `face_material` holds the mapped ids. `materials[g]` is the first file
-        material mapped to id g (ids nobody maps to get an empty placeholder), so the invariant
-        "face_material indexes materials" still holds. Normals / UVs are kept only when every
-        part has them. `dropped_degenerate` is the sum over the parts.
-    """
-    if not parts:
-        raise ValueError("merge_meshes needs at least one mesh")
-    merged_materials: dict[int, MeshMaterial] = {}
-    verts, faces, face_mat, normals, uvs = [], [], [], [], []
-    offset = 0
-    for mesh, id_map in parts:
-        if id_map is None:
-            base = max(merged_materials, default=-1) + 1
-            id_map = np.arange(base, base + len(mesh.materials))
-        id_map = np.asarray(id_map, dtype=np.int64)
-        if id_map.shape != (len(mesh.materials),) or (id_map.size and id_map.min() < 0):
-            raise ValueError(
-                f"material_id_map of mesh {mesh.name!r} must hold {len(mesh.materials)} "
-                f"non-negative ids, got shape {id_map.shape}"
-            )
-        for local, global_id in enumerate(id_map.tolist()):
-            merged_materials.setdefault(global_id, mesh.materials[local])
-        verts.append(mesh.vertices)
-        faces.append(mesh.faces + offset)
-        face_mat.append(id_map[mesh.face_material])
-        normals.append(mesh.normals)
-        uvs.append(mesh.uvs)
-        offset += len(mesh.vertices)
-
-    top = max(merged_materials, default=-1) + 1
-    if top > np.iinfo(np.int32).max:
-        raise ValueError("material id does not fit int32")
-    return Mesh(
-        name=name,
-        vertices=np.concatenate(verts),
-        faces=np.concatenate(faces),
-        face_material=np.concatenate(face_mat).astype(np.int32),
-        materials=[merged_materials.get(g, MeshMaterial("")) for g in range(top)],
-        normals=None if any(n is None for n in normals) else np.concatenate(normals),
-        uvs=None if any(u is None for u in uvs) else np.concatenate(uvs),
-        dropped_degenerate=sum(mesh.dropped_degenerate for mesh, _ in parts),
-        dropped_duplicate=sum(mesh.dropped_duplicate for mesh, _ in parts),
-    )
-
-
-# --------------------------------------------------------------------------------------------
-# internals
 
 
 @dataclass
@@ -367,10 +305,10 @@ def _assemble(
         if bad:
             raise MeshError(f"{path}: {bad} vertices overflow to non-finite values under the transform")
         big = float(np.abs(vertices).max()) if vertices.size else 0.0
-        if big > _FLOAT32_MAX:
+        if big > obj.FLOAT32_MAX:
             # The GPU works in float32: such a mesh cannot be uploaded (issue #6).
             raise MeshError(f"{path}: the transform puts vertices at coordinates up to {big:.3g}, "
-                            f"beyond float32 (max {_FLOAT32_MAX:.3g})")
+                            f"beyond float32 (max {obj.FLOAT32_MAX:.3g})")
         if normal_arr is not None:
             # Normals are covectors: they transform with the inverse transpose.
             normal_arr = normal_arr @ np.linalg.inv(linear)
@@ -420,103 +358,6 @@ def _assemble(
     )
 
 
-# --------------------------------------------------------------------------------------------
-# OBJ specifics: line numbers for bad vertices and faces, float64 coordinates far from the origin
-
-_OBJ_VERTEX = re.compile(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.MULTILINE)
-_OBJ_FACE = re.compile(rb"^[ \t]*f[ \t]+([^\r\n#]*)", re.MULTILINE)
-_FLOAT32_MAX = float(np.finfo(np.float32).max)
-
-#: Assimp parses OBJ coordinates as float32. When a mesh's coordinates are more than this many
-#: times its own size, the rounding is visible (relative to the mesh), so the file's own float64
-#: values are read back (see _restore_obj_precision).
-OBJ_FLOAT64_RATIO = 64.0
-
-
-def _line_of(data: bytes, offset: int) -> int:
-    return data.count(b"\n", 0, offset) + 1
-
-
-def _check_obj_vertices(path: Path) -> None:
-    """MeshError naming ``file:line`` for the first vertex that is NaN, infinite or beyond
-    float32 (Assimp would read the latter as inf). A quick byte search skips clean files."""
-    try:
-        data = path.read_bytes()
-    except OSError:
-        return  # Assimp reports unreadable files
-    low = (b"nan", b"NaN", b"NAN", b"inf", b"Inf", b"INF")
-    if not any(t in data for t in low) and re.search(rb"[eE]\+?(3[89]|[4-9]\d|\d{3})", data) is None:
-        return
-    for k, m in enumerate(_OBJ_VERTEX.finditer(data)):
-        try:
-            xyz = [float(t) for t in m.groups()]
-        except ValueError:
-            continue  # Assimp decides what to do with a malformed number
-        if not all(math.isfinite(x) and abs(x) <= _FLOAT32_MAX for x in xyz):
-            text = data[m.start():data.find(b"\n", m.start())].decode("utf-8", "replace").strip()
-            raise MeshError(f"{path}:{_line_of(data, m.start())}: vertex {k + 1} is not finite "
-                            f"(NaN, inf or beyond float32): {text!r}")
-
-
-def _obj_bad_face(path: Path) -> str | None:
-    """'file:line: ...' for the first face whose vertex index is out of range, or None."""
-    data = path.read_bytes()
-    count = 0
-    ends = [m.start() for m in _OBJ_VERTEX.finditer(data)]
-    total = len(ends)
-    for m in _OBJ_FACE.finditer(data):
-        before = int(np.searchsorted(ends, m.start()))  # vertices defined above this face
-        for tok in m.group(1).split():
-            try:
-                i = int(tok.split(b"/")[0])
-            except ValueError:
-                return f"{path}:{_line_of(data, m.start())}: face index {tok.decode(errors='replace')!r} is not an integer"
-            ok = 1 <= i <= total if i > 0 else (i < 0 and -i <= before)
-            if not ok:
-                return (f"{path}:{_line_of(data, m.start())}: face vertex index {i} out of range "
-                        f"(the file has {total} vertices, indices are 1-based)")
-        count += 1
-    return None
-
-
-def _restore_obj_precision(path: Path, parts: list) -> None:
-    """Replace Assimp's float32 coordinates by the file's float64 ones where it matters.
-
-    A Cornell box written at x = 1e5 loses everything below 1/128 in float32, before mcpt's
-    camera-relative float64 rebasing could keep it (issue #6). Every Assimp vertex is the float32
-    rounding of some file vertex; where that file vertex is unique the float64 value is restored.
-    If two different file vertices round to the same float32 vertex, Assimp has already merged
-    them: precision is lost and a warning says so (a YAML ``transform`` keeps far-away meshes
-    exact)."""
-    allv = np.concatenate([p.vertices for p in parts])
-    if allv.size == 0 or not np.isfinite(allv).all():
-        return
-    extent = float(np.max(allv.max(axis=0) - allv.min(axis=0)))
-    if float(np.abs(allv).max()) <= OBJ_FLOAT64_RATIO * max(extent, 1e-300):
-        return
-    data = path.read_bytes()
-    try:
-        exact = np.array([[float(t) for t in m.groups()] for m in _OBJ_VERTEX.finditer(data)])
-    except ValueError:
-        return
-    if exact.size == 0:
-        return
-    keys = np.ascontiguousarray(exact.astype(np.float32)).view(np.dtype((np.void, 12))).ravel()
-    order = np.argsort(keys, kind="stable")
-    sk, se = keys[order], exact[order]
-    clash = (sk[1:] == sk[:-1]) & np.any(se[1:] != se[:-1], axis=1)
-    if clash.any():
-        log.warning("%s: %d vertices differ only below float32 precision at coordinates up to %.3g:"
-                    " they were merged; place the mesh with a YAML transform instead of far-away"
-                    " coordinates", path, int(clash.sum()), float(np.abs(exact).max()))
-        return
-    for p in parts:
-        q = np.ascontiguousarray(p.vertices.astype(np.float32)).view(np.dtype((np.void, 12))).ravel()
-        pos = np.searchsorted(sk, q)
-        pos = np.minimum(pos, len(sk) - 1)
-        found = sk[pos] == q
-        p.vertices = np.where(found[:, None], se[pos], p.vertices)
-
 
 def first_of_duplicates(faces: np.ndarray) -> np.ndarray:
     """Sorted indices of the first occurrence of every triangle, equal up to a cyclic rotation
@@ -563,7 +404,7 @@ def _unit_normals(normals: np.ndarray, vertices: np.ndarray, faces: np.ndarray) 
 
 def _materials(path: Path, dicts: list[dict]) -> list[MeshMaterial]:
     """Convert assimp-py material dicts, keeping only colours the file really gives."""
-    declared = _mtl_declarations(path) if path.suffix.lower() == ".obj" else None
+    declared = obj.mtl_declarations(path) if path.suffix.lower() == ".obj" else None
     out = []
     for d in dicts:
         name = d.get("NAME") or ""
@@ -585,38 +426,3 @@ def _rgb(value) -> tuple[float, float, float] | None:
     return (float(value[0]), float(value[1]), float(value[2]))
 
 
-_MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+(.+?)[ \t]*\r?$", re.MULTILINE)
-
-
-def _mtl_declarations(obj_path: Path) -> dict[str, set[str]]:
-    """Map material name -> lower-cased MTL keywords it declares, for the OBJ's mtllib files.
-
-    A regex over the raw bytes finds `mtllib` lines without splitting a 40 MB OBJ into lines.
-    Missing or unreadable MTL files are simply absent (Assimp then uses its default material).
-    """
-    declared: dict[str, set[str]] = {}
-    try:
-        data = obj_path.read_bytes()
-    except OSError:
-        return declared
-    for match in _MTLLIB.finditer(data):
-        spec = match.group(1).decode("utf-8", "replace")
-        # The spec allows several files per line; a single name with spaces is also common.
-        candidates = [spec] if (obj_path.parent / spec).is_file() else spec.split()
-        for name in candidates:
-            mtl = obj_path.parent / name
-            try:
-                text = mtl.read_text(encoding="utf-8", errors="replace")
-            except OSError:
-                continue
-            current: set[str] | None = None
-            for line in text.splitlines():
-                fields = line.split(None, 1)
-                if not fields:
-                    continue
-                key = fields[0].lower()
-                if key == "newmtl":
-                    current = declared.setdefault(fields[1].strip() if len(fields) > 1 else "", set())
-                elif current is not None:
-                    current.add(key)
-    return declared

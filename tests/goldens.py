@@ -20,7 +20,7 @@ variance, i.e. spp x the variance of the mean), float32 (H, W, 3), and ``meta`` 
 renderer and version, back end, spp, seed, bounces, resolution, mcpt version, SHA-256 of the scene
 file and its meshes, date). Regenerate every golden with ONE command::
 
-    make goldens            # = .venv/bin/python -m mcpt.golden   (see --help)
+    make goldens            # = .venv/bin/python -m tests.goldens   (see --help)
 
 The test (tests/test_golden.py) renders each scene fresh with a DIFFERENT seed and few samples.
 """
@@ -31,24 +31,18 @@ import argparse
 import datetime as _dt
 import hashlib
 import json
-import math
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from statistics import NormalDist
 
 import numpy as np
 
-from . import __version__
+from mcpt import __version__
+from mcpt.output.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, ZTest, sidak_alpha, z_test, z_threshold  # noqa: F401 (re-exported)
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN_DIR = ROOT / "tests" / "golden"
 
-ALPHA = 0.01            # false-rejection rate for a whole image (before the 99.75 % rule)
-ACCEPT = 0.9975         # fraction of pixel-channels that must accept (Mitsuba 3)
-GLOBAL_SIGMA = 4.0      # image-mean agreement, in standard errors, per channel
-VAR_FLOOR_ABS = 1e-4    # per-sample variance floor (Mitsuba 3)
-VAR_FLOOR_REL = 1e-4    # ... plus this times ref^2
 
 
 @dataclass(frozen=True)
@@ -85,94 +79,10 @@ GOLDENS: dict[str, GoldenSpec] = {
 }
 
 
-# ------------------------------------------------------------------------------------------------
-# The test
-# ------------------------------------------------------------------------------------------------
-
-def sidak_alpha(alpha: float, n: int) -> float:
-    """Per-test level so that n independent tests reject none with probability 1 - alpha."""
-    return -math.expm1(math.log1p(-alpha) / max(int(n), 1))
-
-
-def z_threshold(alpha_pixel: float) -> float:
-    """Two-sided standard-normal quantile: P(|Z| > z) = alpha_pixel."""
-    return NormalDist().inv_cdf(1.0 - alpha_pixel / 2.0)
-
-
-@dataclass
-class ZTest:
-    """Outcome of :func:`z_test`; ``z`` is the signed per-pixel-channel statistic."""
-
-    passed: bool
-    accepted: float             # fraction of pixel-channels with |z| <= threshold
-    n: int                      # pixel-channels tested
-    alpha_pixel: float
-    threshold: float
-    z: np.ndarray
-    global_z: np.ndarray        # per channel: (mean(test) - mean(ref)) / its standard error
-    reason: str = ""
-    files: list[str] = field(default_factory=list)
-
-    @property
-    def rejected(self) -> int:
-        return int(round((1.0 - self.accepted) * self.n))
-
-    def summary(self) -> str:
-        g = ", ".join(f"{v:+.2f}" for v in np.atleast_1d(self.global_z))
-        s = (f"{'PASS' if self.passed else 'FAIL'}: {100 * self.accepted:.2f} % of {self.n} "
-             f"pixel-channels within |z| <= {self.threshold:.2f} (Sidak alpha {self.alpha_pixel:.2e},"
-             f" need {100 * ACCEPT:.2f} %); image-mean z per channel [{g}] (need |z| < "
-             f"{GLOBAL_SIGMA:g})")
-        if self.reason:
-            s += f"; {self.reason}"
-        if self.files:
-            s += "; wrote " + ", ".join(self.files)
-        return s
-
-
-def z_test(test, ref, var_test, var_ref, *, var_floor=0.0, alpha: float = ALPHA,
-           accept: float = ACCEPT, allow: int = 0, global_sigma: float = GLOBAL_SIGMA) -> ZTest:
-    """Per-pixel-channel z-test of two independent Monte Carlo estimates of the same image.
-
-    ``var_test`` / ``var_ref`` are the variances OF THE MEANS (per-sample variance / spp), arrays
-    broadcastable to the images, or 0 for an exact reference (analytic value). ``var_floor`` is
-    the lower bound of their sum (see the module docstring). The test passes when at least the
-    fraction ``accept`` of the values accept, or no more than ``allow`` reject (for tiny images,
-    where 0.25 % is less than one pixel).
-    """
-    a = np.asarray(test, np.float64)
-    b = np.asarray(ref, np.float64)
-    if a.shape != b.shape:
-        z = np.zeros(b.shape)
-        return ZTest(False, 0.0, b.size, 0.0, 0.0, z, np.zeros(1),
-                     f"shape {a.shape} differs from the reference {b.shape}")
-    var = np.asarray(var_test, np.float64) + np.asarray(var_ref, np.float64)
-    var = np.maximum(np.broadcast_to(var, a.shape), np.maximum(var_floor, 1e-300))
-    n = a.size
-    ap = sidak_alpha(alpha, n)
-    thr = z_threshold(ap)
-    finite = np.isfinite(a)
-    with np.errstate(invalid="ignore"):
-        z = np.where(finite, (a - b) / np.sqrt(var), np.inf)
-    accepted = float(np.mean(np.abs(z) <= thr))
-    n_rejected = int(np.sum(~(np.abs(z) <= thr)))
-    chans = a.shape[-1] if a.ndim == 3 else 1
-    a2, b2, v2 = (x.reshape(-1, chans) for x in (np.where(finite, a, 0.0), b, var))
-    global_z = (a2.mean(0) - b2.mean(0)) / np.sqrt(v2.sum(0) / a2.shape[0] ** 2)
-    reasons = []
-    if not finite.all():
-        reasons.append(f"{int((~finite).sum())} non-finite values")
-    if accepted < accept and n_rejected > allow:
-        reasons.append(f"{n_rejected} pixel-channels rejected")
-    if np.any(np.abs(global_z) >= global_sigma):
-        reasons.append("image mean differs")
-    return ZTest(not reasons, accepted, n, ap, thr, z, global_z, "; ".join(reasons))
-
-
 def write_report(out_dir: str | Path, name: str, test, ref, result: ZTest) -> list[str]:
     """Difference images for a failed comparison: test, ref, test - ref, |z| (EXR) and a PNG mask
     of the rejected pixels (white). Returns the paths written (also stored in ``result.files``)."""
-    from .image import write_exr, write_png
+    from mcpt.output.image import write_exr, write_png
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -223,7 +133,7 @@ def load(path: str | Path) -> Golden:
 
 def scene_digest(scene_file: str | Path) -> str:
     """SHA-256 over the scene file and every mesh it uses: a changed scene makes a golden stale."""
-    from .scene import load_scene
+    from mcpt.scene import load_scene
 
     scene_file = Path(scene_file)
     h = hashlib.sha256(scene_file.read_bytes())
@@ -234,13 +144,13 @@ def scene_digest(scene_file: str | Path) -> str:
 
 def render_spec(spec: GoldenSpec, spp: int, seed: int, gl_backend: str | None = None):
     """Render a golden's scene; returns (mean, per-sample variance, metadata)."""
-    from .api import prepare
+    from mcpt.api import prepare
 
     scene_file = ROOT / spec.scene
     p = prepare(scene_file, resolution=spec.resolution, bounces=spec.bounces, gl_backend=gl_backend,
                 feature_flags={"variance": True}, clamp=spec.clamp)
     try:
-        res = p.renderer.render(spp, seed, clamp=spec.clamp)
+        res = p.renderer.render(spp, seed)
     finally:
         p.renderer.release()
     meta = {
@@ -313,7 +223,7 @@ def regenerate(names=None, *, directory=None, spp: int | None = None, gl_backend
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mcpt.golden",
+    ap = argparse.ArgumentParser(prog="python -m tests.goldens",
                                  description="Regenerate (default) or check the golden images.")
     ap.add_argument("names", nargs="*", metavar="NAME",
                     help=f"goldens to process (default: all of {', '.join(GOLDENS)})")

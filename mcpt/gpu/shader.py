@@ -17,6 +17,8 @@ from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
+from ..errors import McptError
+
 GLSL_VERSION = "#version 430 core"  # layout(binding=N) needs 4.20; 4.30 for std430-era built-ins
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
 _DEFINE = re.compile(r"^#define\s+(MCPT_\w+)\s+(-?\d+)\s*$", re.M)
@@ -24,33 +26,36 @@ _DIRECTIVE = re.compile(r"^\s*#\s*(if|ifdef|ifndef|elif|else|endif)\b\s*(.*?)\s*
 _GUARD = re.compile(r"^[\sA-Z0-9_()!&|<>=]*$")
 
 
-class ShaderError(RuntimeError):
+class ShaderError(McptError, RuntimeError):
     """A shader failed to compile or link; the message names file:line."""
 
 
 def glsl_dir() -> Path:
-    """Where the shaders are: inside the installed package (wheel) or at the source tree's top."""
+    """Where the shaders are: the ``mcpt.glsl`` package (the source tree's glsl/ folder, mapped
+    there by pyproject.toml for wheels and editable installs alike)."""
     try:
-        packaged = resources.files("mcpt") / "glsl"
-        if packaged.is_dir():
-            return Path(str(packaged))
-    except (ModuleNotFoundError, TypeError):  # pragma: no cover
-        pass
-    here = Path(__file__).resolve().parent.parent / "glsl"
-    if here.is_dir():
-        return here
-    raise ShaderError(f"GLSL sources not found (looked in the mcpt package and {here})")
+        here = Path(str(resources.files("mcpt.glsl")))
+    except (ModuleNotFoundError, TypeError) as exc:  # pragma: no cover - a broken install
+        raise ShaderError(f"GLSL sources not found: {exc}") from None
+    if not (here / "pathtrace.frag").is_file():  # pragma: no cover
+        raise ShaderError(f"GLSL sources not found in {here}")
+    return here
 
 
 @lru_cache(maxsize=None)
-def _read(name: str) -> str:
-    return (glsl_dir() / name).read_text()
+def _read(name: str, extra: tuple[Path, ...] = ()) -> str:
+    """A shader file from ``extra`` folders (searched first: e.g. a test's probe shaders) or glsl/."""
+    for folder in (*extra, glsl_dir()):
+        if (folder / name).is_file():
+            return (folder / name).read_text()
+    raise ShaderError(f"shader file {name!r} not found in {[str(f) for f in (*extra, glsl_dir())]}")
 
 
 class Source:
     """An assembled GLSL source plus the table that maps source-string numbers to file names."""
 
-    def __init__(self, entry: str, preamble: str):
+    def __init__(self, entry: str, preamble: str, extra: tuple[Path, ...] = ()):
+        self.extra = tuple(extra)
         self.files: list[str] = ["<preamble>"]
         self._seen: set[str] = set()
         self._defines = {k: int(v) for k, v in _DEFINE.findall(preamble)}
@@ -71,7 +76,7 @@ class Source:
         def live() -> bool:
             return all(not f["dead"] and (not f["known"] or f["active"]) for f in frames)
 
-        for lineno, line in enumerate(_read(name).splitlines(), start=1):
+        for lineno, line in enumerate(_read(name, self.extra).splitlines(), start=1):
             d = _DIRECTIVE.match(line)
             if d:
                 out.append(self._directive(d.group(1), d.group(2), frames, live, line, name, lineno))
@@ -149,12 +154,14 @@ class Source:
 _cache: dict = {}
 
 
-def program(ctx, vertex: str, fragment: str, preamble: str, key):
-    """Compile (or fetch from the cache) the program for ``key`` on ``ctx``."""
-    ck = (id(ctx), vertex, fragment, key)
+def program(ctx, vertex: str, fragment: str, preamble: str, key, *, extra: tuple[Path, ...] = ()):
+    """Compile (or fetch from the cache) the program for ``key`` on ``ctx``; ``extra``: folders
+    searched before glsl/ for the entry files and their includes."""
+    extra = tuple(Path(e) for e in extra)
+    ck = (id(ctx), vertex, fragment, key, extra)
     if ck in _cache:
         return _cache[ck]
-    vs, fs = Source(vertex, preamble), Source(fragment, preamble)
+    vs, fs = Source(vertex, preamble, extra), Source(fragment, preamble, extra)
     try:
         prog = ctx.program(vertex_shader=vs.text, fragment_shader=fs.text)
     except Exception as exc:  # moderngl.Error carries the driver's log

@@ -20,25 +20,20 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from ..errors import McptError
+from ..shading.sampler import RandomNumbers
 from . import shader
-from .camera import basis
 from .context import GLContext
 from .features import Features
-from .loader import World
-from .sampler import RandomNumbers
+from .pack import Packed
 from .tbo import GL_R32F, create_tbo
 
 # Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
 MAX_RANDOM_PER_TILE = 1 << 26
 
 
-# Texels per item of each buffer, so a size error can say how many items would fit.
-_ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-          "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
-
-
-class RenderError(RuntimeError):
-    pass
+class RenderError(McptError, RuntimeError):
+    """The render cannot be done as asked (image too large for the driver or memory, spp < 1)."""
 
 
 @dataclass
@@ -88,14 +83,20 @@ def check_host_memory(width: int, height: int, targets: int) -> None:
 
 
 class Renderer:
-    """A compiled program and the uploaded scene, ready to render passes."""
+    """A compiled program and the uploaded scene, ready to render passes.
 
-    def __init__(self, gl: GLContext, world: World, features: Features, *,
-                 max_random_per_tile: int = MAX_RANDOM_PER_TILE):
-        self.gl, self.world, self.features = gl, world, features
+    Takes what mcpt/gpu/pack.py packed (buffers and uniforms) and nothing else of the scene: the
+    limits are checked first, then the program for ``features`` is compiled (or taken from the
+    cache), then the buffers are uploaded. ``clamp`` (radiance, biased) needs features.clamp.
+    """
+
+    def __init__(self, gl: GLContext, features: Features, packed: Packed, *,
+                 clamp: float | None = None, max_random_per_tile: int = MAX_RANDOM_PER_TILE):
+        if (clamp is not None) != features.clamp:
+            raise ValueError("clamp value and features.clamp disagree")
+        self.gl, self.features = gl, features
         ctx = gl.ctx
-        cam = world.scene.camera
-        self.width, self.height = cam.width, cam.height
+        self.width, self.height = packed.width, packed.height
         # Refuse what cannot work before compiling or allocating anything.
         limits = gl.limits()
         cap = min(limits["max_texture_size"], *limits["max_viewport_dims"])
@@ -108,10 +109,8 @@ class Renderer:
                                       features.key)
         t1 = time.perf_counter()
         self.tbos = {}
-        for name, arr in world.buffers(features).items():
-            per, item = _ITEMS.get(name, (1, "texels"))
-            if name == "materials":
-                per = features.material_texels
+        for name, arr in packed.buffers.items():
+            per, item = packed.per_item.get(name, (1, "texels"))
             self.tbos[name] = create_tbo(gl, name, arr, per_item=per, item=item)
         self.tiles = plan_tiles(self.width, self.height, features.random_dims,
                                 limits["max_texture_buffer_size"], max_random_per_tile)
@@ -124,13 +123,10 @@ class Renderer:
                         for _ in range(2 if features.variance else 1)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
         self.vao = ctx.vertex_array(self.program, [])
-        f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, self.width, self.height)
-        self._uniform("u_cam_forward", tuple(f))
-        self._uniform("u_cam_right", tuple(r))
-        self._uniform("u_cam_up", tuple(u))
-        self._uniform("u_resolution", (self.width, self.height))
-        self._uniform("u_tri_count", world.n_triangles)
-        self._uniform("u_light_count", world.lights.count)
+        for name, value in packed.uniforms.items():
+            self._uniform(name, value)
+        if clamp is not None:
+            self._uniform("u_clamp", float(clamp))
         t2 = time.perf_counter()
         self.setup = {
             "compile_seconds": t1 - t0,
@@ -144,14 +140,11 @@ class Renderer:
         if name in self.program:  # the specialised program may have compiled a uniform away
             self.program[name].value = value
 
-    def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64,
-               clamp: float | None = None) -> RenderResult:
+    def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64) -> RenderResult:
         """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``."""
         if spp < 1:
             raise RenderError(f"spp must be >= 1, got {spp}")
         ctx = self.gl.ctx
-        if clamp is not None:
-            self._uniform("u_clamp", float(clamp))
         dims = self.features.random_dims
         streams = [RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
         total = np.zeros((len(self.targets), self.height, self.width, 4), np.float64)

@@ -1,4 +1,4 @@
-"""Run a probe shader over N items and read back one uvec4 per item (for tests of the GPU side).
+"""Run a probe shader over N items and read back one uvec4 per item (tests and stability cases of the GPU side).
 
 The probe draws a full-screen triangle into an RGBA32UI target of ``width x ceil(N / width)``
 pixels; pixel (x, y) handles item ``y * width + x``. Used to check packed data bit-for-bit and to
@@ -8,13 +8,18 @@ compare GPU traversal with numpy references.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import moderngl
 import numpy as np
 
-from . import shader
-from .context import GLContext
-from .tbo import create_tbo
+from mcpt.gpu import shader
+from mcpt.gpu.context import GLContext
+from mcpt.gpu.tbo import create_tbo
+
+#: The probe shaders (bench/glsl/), found before glsl/ by the shader assembler; they include
+#: the renderer's own GLSL files, so a probe tests the code that renders.
+PROBE_GLSL = Path(__file__).resolve().parent / "glsl"
 
 
 def run_probe(gl: GLContext, fragment: str, probe: np.ndarray, count: int, *, preamble: str = "",
@@ -22,7 +27,7 @@ def run_probe(gl: GLContext, fragment: str, probe: np.ndarray, count: int, *, pr
               width: int = 256) -> np.ndarray:
     """(count, 4) uint32 written by ``fragment`` with ``probe`` bound as the probe buffer."""
     ctx = gl.ctx
-    prog = shader.program(ctx, "fullscreen.vert", fragment, preamble, ("probe", key))
+    prog = shader.program(ctx, "fullscreen.vert", fragment, preamble, ("probe", key), extra=(PROBE_GLSL,))
     made = [create_tbo(gl, "probe", probe)]
     for name, arr in (tbos or {}).items():
         made.append(create_tbo(gl, name, arr))

@@ -1,20 +1,14 @@
-"""The only road from scene data to render-ready objects.
+"""Building the world: the only road from a scene description to render-ready geometry.
 
-``load_world(scene)`` reads every mesh (mcpt/mesh.py), resolves materials (YAML first, the OBJ's
+``load_world(scene)`` reads every mesh (mcpt/shapes/mesh.py), resolves materials (YAML first, the OBJ's
 MTL ``Kd``/``Ke`` where the YAML is silent), rebases the geometry relative to the camera in float64
 before rounding to float32 (so a scene far from the origin keeps its precision near the camera),
-builds the BVH (mcpt/bvh.py), reorders triangles into leaf order and derives the light table.
-Nothing here touches GL: :mod:`mcpt.render` uploads what :meth:`World.buffers` returns.
+builds the BVH (mcpt/shapes/bvh.py), reorders triangles into leaf order and derives the light
+table. Nothing here touches GL: mcpt/gpu/pack.py packs what the features need.
 
 Per-vertex data is read only where a material needs it (the data diet): vertex normals for meshes
 whose material has ``smooth_normals`` (Assimp generates them when the file has none), UVs for
-meshes whose material has an ``albedo_texture``; both are stored per triangle corner, in BVH
-order, and uploaded only when the features ask for them:
-
-    normals   1 RGBA32UI texel per triangle: the three corner normals, octahedral-encoded as two
-              16-bit snorms each (error < 0.004 degrees), 4th component 0 (glsl/normals.glsl)
-    uvs       2 texels per triangle: (u0, v0, u1, v1), (u2, v2, 0, 0) float bits (glsl/texture.glsl)
-    textures  headers and sRGB texels of every albedo image (mcpt/textures.py)
+meshes whose material has an ``albedo_texture``; both are stored per triangle corner, in BVH order.
 """
 
 from __future__ import annotations
@@ -25,20 +19,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import features as feat
+from ..errors import McptError
+from ..scene import Scene
+from ..shading.lights import Lights, build_lights
+from ..shading.materials import MaterialTable
+from ..shading.texture import Texture, load_texture
+from . import geometry
 from .bvh import BVH, build_bvh
-from .lights import Lights, build_lights, material_light_pdf_area
-from .materials import MaterialTable
 from .mesh import first_of_duplicates, load_mesh
-from .scene import Scene
-from .textures import Texture, load_texture, pack_textures
 
 log = logging.getLogger("mcpt")
 
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # when neither the YAML nor the MTL gives one
 
 
-class LoadError(ValueError):
+class LoadError(McptError, ValueError):
     """The scene's data cannot be turned into a world (empty scene, ...)."""
 
 
@@ -59,72 +54,6 @@ class World:
     def n_triangles(self) -> int:
         return int(self.tris.shape[0])
 
-    def features(self, bounces: int | None = None, **flags) -> feat.Features:
-        mt, ids = self.materials, self.tri_material
-        used = {mt.types[i] for i in mt.used(ids)}
-        return feat.derive(
-            bounces=self.scene.render.bounces if bounces is None else bounces,
-            n_triangles=self.n_triangles, n_emissive=self.lights.count, material_types=used,
-            rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
-            smooth_normals=mt.smooth_shaded(ids), **flags)
-
-    def buffers(self, features: feat.Features) -> dict[str, np.ndarray]:
-        """The arrays to upload, by TBO name: only what ``features`` needs (the data diet)."""
-        out = {"tris": pack_triangles(self.tris, self.tri_material),
-               "materials": self.materials.pack(
-                   material_light_pdf_area(self.materials.emission, self.lights.total_power),
-                   texels=features.material_texels)}
-        if features.bvh:
-            out["nodes"] = self.bvh.gpu_nodes()
-        if features.nee:
-            out["lights"] = self.lights.pack()
-        # The uber-shader (--features all) declares these buffers for any scene, but reads them
-        # only for materials that have smooth normals / a texture: without such a material
-        # nothing is read, so nothing is uploaded.
-        if features.smooth_normals and self.normals is not None:
-            out["normals"] = pack_normals(self.normals)
-        if features.textures and self.textures:
-            out["uvs"] = pack_uvs(self.uvs)
-            out["textures"] = pack_textures(self.textures)
-        return out
-
-
-def octahedral_encode(n: np.ndarray) -> np.ndarray:
-    """Unit vectors (..., 3) -> uint32: octahedral map (Cigolle et al. 2014, JCGT 3(2)) with two
-    16-bit snorms, x in the low half (GLSL unpackSnorm2x16)."""
-    n = np.asarray(n, np.float64)
-    p = n[..., :2] / np.maximum(np.abs(n).sum(axis=-1, keepdims=True), 1e-30)
-    folded = (1.0 - np.abs(p[..., ::-1])) * np.where(p >= 0.0, 1.0, -1.0)
-    p = np.where(n[..., 2:3] < 0.0, folded, p)
-    q = np.round(np.clip(p, -1.0, 1.0) * 32767.0).astype(np.int32) & 0xFFFF
-    return (q[..., 0] | (q[..., 1] << 16)).astype(np.uint32)
-
-
-def octahedral_decode(v: np.ndarray) -> np.ndarray:
-    """The inverse (float64), as glsl/normals.glsl computes it."""
-    v = np.asarray(v, np.uint32)
-    q = np.stack([v & 0xFFFF, v >> 16], axis=-1).astype(np.uint16).view(np.int16)
-    p = np.maximum(q.astype(np.float64) / 32767.0, -1.0)
-    n = np.concatenate([p, 1.0 - np.abs(p).sum(axis=-1, keepdims=True)], axis=-1)
-    t = np.maximum(-n[..., 2:3], 0.0)
-    n[..., :2] += np.where(n[..., :2] >= 0.0, -t, t)
-    return n / np.linalg.norm(n, axis=-1, keepdims=True)
-
-
-def pack_normals(normals: np.ndarray) -> np.ndarray:
-    """One RGBA32UI texel per triangle: the three corner normals octahedral-encoded, then 0."""
-    out = np.zeros((normals.shape[0], 4), np.uint32)
-    out[:, :3] = octahedral_encode(normals)
-    return out
-
-
-def pack_uvs(uvs: np.ndarray) -> np.ndarray:
-    """Two RGBA32UI texels per triangle: (u0, v0, u1, v1), (u2, v2, 0, 0) as float bits."""
-    f = uvs.shape[0]
-    out = np.zeros((f, 8), np.float32)
-    out[:, :6] = uvs.reshape(f, 6)
-    return out.view(np.uint32).reshape(-1, 4)
-
 
 def _first_of_duplicate_triangles(tris32: np.ndarray) -> np.ndarray:
     """Indices of the first occurrence of each triangle, equal float32 corners in the same cyclic
@@ -132,15 +61,6 @@ def _first_of_duplicate_triangles(tris32: np.ndarray) -> np.ndarray:
     corners = np.ascontiguousarray(tris32.reshape(-1, 3)).view(np.uint32)
     _, ids = np.unique(corners, axis=0, return_inverse=True)
     return first_of_duplicates(ids.reshape(-1, 3))
-
-
-def pack_triangles(tris: np.ndarray, tri_material: np.ndarray) -> np.ndarray:
-    """Three RGBA32UI texels per triangle: (v0 bits, material), (v1 bits, 0), (v2 bits, 0)."""
-    f = tris.shape[0]
-    out = np.zeros((f, 3, 4), np.uint32)
-    out[:, :, :3] = np.ascontiguousarray(tris, np.float32).view(np.uint32)
-    out[:, 0, 3] = tri_material
-    return out.reshape(-1, 4)
 
 
 def load_world(scene: Scene) -> World:
@@ -239,10 +159,7 @@ def load_world(scene: Scene) -> World:
                           texture=np.asarray(cols["texture"], np.int64),
                           smooth=np.asarray(cols["smooth"], bool),
                           sigma_a=np.asarray(cols["sigma_a"], np.float64).reshape(-1, 3))
-    e1 = tris32[:, 1].astype(np.float64) - tris32[:, 0]
-    e2 = tris32[:, 2].astype(np.float64) - tris32[:, 0]
-    areas = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
-    lights = build_lights(areas, table.emission[tri_mat])
+    lights = build_lights(geometry.areas(tris32), table.emission[tri_mat])
     if lights.count == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")

@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import moderngl
 
+from ..errors import McptError
+
 BACKENDS = ("auto", "egl", "osmesa")
 
 # GL enums used by the raw calls below (from the GL 4.5 core headers).
@@ -35,7 +37,7 @@ GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS = 0x8B4D
 GL_MAX_VIEWPORT_DIMS = 0x0D3A
 
 
-class GLError(RuntimeError):
+class GLError(McptError, RuntimeError):
     """A GL back end is missing or failed; the message is one line meant for the user."""
 
 

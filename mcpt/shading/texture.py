@@ -24,11 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import McptError
+
 WRAP = {"repeat": 0, "clamp": 1, "mirror": 2}
 FLAG_NEAREST = 4
 
 
-class TextureError(ValueError):
+class TextureError(McptError, ValueError):
     """An image cannot be used as a texture; the message names the file."""
 
 
@@ -136,3 +138,11 @@ def lookup(t: Texture, uv: np.ndarray) -> np.ndarray:
     top = lin[ys[1], xs[0]] * (1 - fx) + lin[ys[1], xs[1]] * fx
     bot = lin[ys[0], xs[0]] * (1 - fx) + lin[ys[0], xs[1]] * fx
     return bot * (1 - fy) + top * fy
+
+
+def pack_uvs(uvs: np.ndarray) -> np.ndarray:
+    """Two RGBA32UI texels per triangle: (u0, v0, u1, v1), (u2, v2, 0, 0) as float bits."""
+    f = uvs.shape[0]
+    out = np.zeros((f, 8), np.float32)
+    out[:, :6] = uvs.reshape(f, 6)
+    return out.view(np.uint32).reshape(-1, 4)

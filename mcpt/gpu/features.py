@@ -29,6 +29,13 @@ RR_START = 3
 DIMS_CAMERA = 2
 DIMS_PER_BOUNCE = 6
 
+
+
+def random_dims(bounces: int) -> int:
+    """Random numbers per pixel per pass of a path with ``bounces`` scattering events."""
+    return DIMS_CAMERA + DIMS_PER_BOUNCE * bounces
+
+
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
 
@@ -95,7 +102,7 @@ class Features:
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return DIMS_CAMERA + DIMS_PER_BOUNCE * self.bounces
+        return random_dims(self.bounces)
 
     @property
     def key(self) -> tuple:
@@ -168,3 +175,14 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         variance=variance,
         loop_limit=loop_limit,
     )
+
+
+def for_world(world, *, bounces: int | None = None, **flags) -> Features:
+    """The features of a built world (mcpt/shapes/world.py): what its used materials need."""
+    mt, ids = world.materials, world.tri_material
+    used = {mt.types[i] for i in mt.used(ids)}
+    return derive(
+        bounces=world.scene.render.bounces if bounces is None else bounces,
+        n_triangles=world.n_triangles, n_emissive=world.lights.count, material_types=used,
+        rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
+        smooth_normals=mt.smooth_shaded(ids), **flags)

@@ -1,0 +1,1 @@
+"""Shaders, shipped as package data (mcpt/gpu/shader.py assembles them)."""

@@ -1,0 +1,70 @@
+"""Packing: a built world -> the buffer-texture arrays and uniforms one program needs (the data diet).
+
+Only what the features ask for is packed: the BVH when the scene is large enough to use it, the
+light table when there is light sampling, corner normals and UVs/texels only when some material
+reads them. Each array's layout is documented by its host module, named after the GLSL file that
+reads it:
+
+    tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
+    nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
+    lights     mcpt/shading/lights.py    <-> glsl/lights.glsl
+    materials  mcpt/shading/materials.py <-> glsl/materials.glsl
+    normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
+    uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
+    camera     mcpt/shading/camera.py    <-> glsl/camera.glsl (uniforms)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..shading.camera import basis
+from ..shading.lights import material_light_pdf_area
+from ..shading.normals import pack_normals
+from ..shading.texture import pack_textures, pack_uvs
+from ..shapes.geometry import pack_triangles
+from ..shapes.world import World
+from .features import Features
+
+# Texels per item of each buffer, so a size error can say how many items would fit.
+ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
+         "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+
+
+@dataclass(frozen=True)
+class Packed:
+    """Everything the GPU side needs of a world, and nothing of the world itself."""
+
+    width: int                                   # image size, pixels
+    height: int
+    buffers: dict[str, np.ndarray]               # by TBO name (mcpt/gpu/tbo.py UNITS)
+    uniforms: dict = field(default_factory=dict)  # by GLSL uniform name
+    per_item: dict = field(default_factory=dict)  # TBO name -> (texels per item, item name)
+
+
+def pack(world: World, features: Features) -> Packed:
+    cam = world.scene.camera
+    buffers = {"tris": pack_triangles(world.tris, world.tri_material),
+               "materials": world.materials.pack(
+                   material_light_pdf_area(world.materials.emission, world.lights.total_power),
+                   texels=features.material_texels)}
+    if features.bvh:
+        buffers["nodes"] = world.bvh.gpu_nodes()
+    if features.nee:
+        buffers["lights"] = world.lights.pack()
+    # The uber-shader (--features all) declares these buffers for any scene, but reads them only
+    # for materials that have smooth normals / a texture: without such a material nothing is
+    # read, so nothing is uploaded.
+    if features.smooth_normals and world.normals is not None:
+        buffers["normals"] = pack_normals(world.normals)
+    if features.textures and world.textures:
+        buffers["uvs"] = pack_uvs(world.uvs)
+        buffers["textures"] = pack_textures(world.textures)
+    f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
+    uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
+                "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
+                "u_light_count": world.lights.count}
+    per_item = dict(ITEMS, materials=(features.material_texels, "materials"))
+    return Packed(cam.width, cam.height, buffers, uniforms, per_item)

@@ -1,0 +1,1 @@
+"""Results: image files (``image``) and the statistics to compare renders (``stats``)."""

@@ -1,0 +1,19 @@
+"""The scene: a YAML file described as validated, immutable Python objects (the first room).
+
+``load_scene(path)`` reads and validates a file; every mistake is one :class:`SceneError` line
+naming file, line and key. Nothing here loads meshes or touches GL: mcpt/shapes/world.py turns a
+Scene into render-ready data. Modules: ``reader`` (YAML with line numbers), ``model`` (camera,
+render settings, meshes, the scene root), ``materials``, ``transform``, ``fields`` (shared field
+types), ``diagnostics`` (error wording).
+"""
+
+from .diagnostics import SceneError
+from .fields import MAX_RESOLUTION, TEXTURE_SUFFIXES
+from .materials import MATERIAL_KEYS, Absorption, ImageTexture, Material
+from .model import Camera, Mesh, RenderSettings, Scene
+from .reader import load_scene, parse_scene
+from .transform import Transform
+
+__all__ = ["MAX_RESOLUTION", "MATERIAL_KEYS", "TEXTURE_SUFFIXES", "Absorption", "Camera", "ImageTexture",
+           "Material", "Mesh", "RenderSettings", "Scene", "SceneError", "Transform", "load_scene",
+           "parse_scene"]

@@ -1,0 +1,218 @@
+"""Scene models: camera, render settings, meshes and the scene root, validated and immutable.
+
+This module only *describes* a scene. It does not load meshes (it only checks that each mesh file
+exists) and touches no GL. Everything the user can get wrong in a scene file is reported as one
+:class:`SceneError` whose message is a single line::
+
+    <file>:<line>: <dotted.key.path>: <what is wrong>
+
+so an editor can jump to it. The line comes from a custom YAML loader that remembers where every
+mapping key and sequence item was written; pydantic's error location (``loc``) is mapped back onto
+it.
+
+Units and conventions (see /work/shared/scenes-ref/*/scene.json ``conventions``):
+
+* Coordinates are right-handed, y up, arbitrary world units.
+* Colours are linear RGB. ``albedo`` is a reflectance in [0, 1]; ``emission`` is emitted radiance
+  (W sr^-1 m^-2), front side only.
+* Angles in the file are degrees.
+
+Public API: :class:`SceneError`, :func:`load_scene`, :func:`parse_scene`, and the models
+:class:`Scene`, :class:`Camera`, :class:`RenderSettings`, :class:`Material`, :class:`Mesh`,
+:class:`Transform`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import MappingProxyType
+from typing import Annotated, Any
+
+import numpy as np
+from pydantic import (
+    AfterValidator,
+    BeforeValidator,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    ValidationInfo,
+    WrapSerializer,
+    field_validator,
+    model_validator,
+)
+
+from ..shading.camera import orthonormal
+from .diagnostics import _FieldError, _to_scene_error
+from .fields import Resolution, Vec3, _list_to_tuple, _Model, _none_is_absent, _scene_path
+from .materials import Material
+from .transform import Transform
+
+
+class Camera(_Model):
+    """Pinhole camera.
+
+    Rays follow scene.json's ``camera_ray`` convention: ``f = normalize(look_at - position)``,
+    ``r = normalize(cross(f, up))``, ``u = cross(r, f)``; image row 0 is the top.
+    """
+
+    position: Vec3
+    """Eye position, world units."""
+    look_at: Vec3
+    """Point the camera looks at, world units; must differ from ``position``."""
+    up: Vec3 = (0.0, 1.0, 0.0)
+    """Up hint, world units (any length); must not be parallel to the view direction."""
+    vfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)]
+    """Full vertical field of view in degrees, 0 < vfov_deg < 180."""
+    resolution: Resolution
+    """``[width, height]`` in pixels, each 1..MAX_RESOLUTION."""
+
+    @property
+    def width(self) -> int:
+        """Image width in pixels."""
+        return self.resolution[0]
+
+    @property
+    def height(self) -> int:
+        """Image height in pixels."""
+        return self.resolution[1]
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Orthonormal ``(forward, right, up)`` vectors (float64), per the convention above."""
+        return orthonormal(self.position, self.look_at, self.up)
+
+    @model_validator(mode="after")
+    def _check_geometry(self) -> Camera:
+        f = np.subtract(self.look_at, self.position, dtype=np.float64)
+        f_len = float(np.linalg.norm(f))
+        if f_len == 0.0:
+            raise _FieldError(("look_at",), "look_at equals position, so there is no view direction")
+        up = np.asarray(self.up, dtype=np.float64)
+        up_len = float(np.linalg.norm(up))
+        if up_len == 0.0:
+            raise _FieldError(("up",), "up is the zero vector")
+        # sin of the angle between the two; below ~1e-6 rad the right vector is numerically garbage.
+        if np.linalg.norm(np.cross(f / f_len, up / up_len)) < 1e-6:
+            raise _FieldError(("up",), "up is parallel to the view direction (look_at - position)")
+        return self
+
+
+class RenderSettings(_Model):
+    """Render defaults; each can be overridden from the command line (:meth:`Scene.with_overrides`)."""
+
+    spp: Annotated[int, Field(ge=1)] = 64
+    """Samples per pixel, >= 1."""
+    bounces: Annotated[int, Field(ge=0)] = 8
+    """Maximum scattering events per path: 0 = emitters only, 1 = direct light only."""
+    seed: Annotated[int, Field(ge=0, lt=2**63)] = 0
+    """Random seed, 0 <= seed < 2**63 (fits a signed 64-bit integer)."""
+
+
+
+class Mesh(_Model):
+    """One OBJ file placed in the scene."""
+
+    file: Path
+    """Absolute path of the OBJ. In YAML: relative to the YAML file's folder, or absolute."""
+    material: str | None = None
+    """Name of an entry of ``Scene.materials``; None = use the OBJ's own MTL materials."""
+    transform: Transform = Transform()
+    """Object-to-world placement; identity when absent."""
+
+    @field_validator("file", mode="before")
+    @classmethod
+    def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
+        return _scene_path(value, info)
+
+    @field_validator("file", mode="after")
+    @classmethod
+    def _exists(cls, value: Path) -> Path:
+        if not value.exists():
+            raise ValueError(f"mesh file not found: {value}")
+        if not value.is_file():
+            raise ValueError(f"mesh file is not a regular file: {value}")
+        return value
+
+    @field_validator("transform", mode="before")
+    @classmethod
+    def _empty_transform(cls, value: Any) -> Any:
+        return Transform() if value is None else value
+
+
+class Scene(_Model):
+    """The root of a scene file. Build it with :func:`load_scene` / :func:`parse_scene`."""
+
+    name: str | None = None
+    """Free-form scene name (for logs / output names)."""
+    camera: Camera
+    render: Annotated[RenderSettings, _none_is_absent(RenderSettings)] = RenderSettings()
+    """Render defaults (spp 64, bounces 8, seed 0)."""
+    materials: Annotated[
+        dict[str, Material],
+        _none_is_absent(dict),
+        # Read-only view, so the frozen Scene is immutable all the way down.
+        AfterValidator(MappingProxyType),
+        WrapSerializer(lambda value, handler: handler(dict(value))),
+    ] = Field(default_factory=lambda: MappingProxyType({}))
+    """Material name -> material (a read-only mapping)."""
+    meshes: Annotated[tuple[Mesh, ...], BeforeValidator(_list_to_tuple), Field(min_length=1)]
+    """The meshes, at least one (required)."""
+
+    _source: Path | None = PrivateAttr(default=None)
+
+    @model_validator(mode="after")
+    def _check_material_names(self) -> Scene:
+        for i, mesh in enumerate(self.meshes):
+            if mesh.material is not None and mesh.material not in self.materials:
+                defined = ", ".join(sorted(self.materials)) or "none"
+                raise _FieldError(
+                    ("meshes", i, "material"),
+                    f"undefined material {mesh.material!r} (defined: {defined})",
+                )
+        return self
+
+    @property
+    def source_path(self) -> Path | None:
+        """The YAML file this scene was read from (None if built otherwise)."""
+        return self._source
+
+    def with_overrides(
+        self,
+        *,
+        spp: int | None = None,
+        bounces: int | None = None,
+        seed: int | None = None,
+        resolution: tuple[int, int] | list[int] | None = None,
+    ) -> Scene:
+        """A new, fully revalidated Scene with the given render settings / resolution replaced.
+
+        ``None`` keeps the file's value. Raises :class:`SceneError` (no line number) if an override
+        is invalid, e.g. ``spp=0``.
+        """
+        # Untouched sub-models are passed as instances (already valid, immutable); the changed
+        # ones are rebuilt from plain data so every constraint is checked again.
+        render = self.render.model_dump()
+        for key, value in (("spp", spp), ("bounces", bounces), ("seed", seed)):
+            if value is not None:
+                render[key] = value
+        camera = self.camera.model_dump()
+        if resolution is not None:
+            camera["resolution"] = resolution
+        data = {
+            "name": self.name,
+            "camera": camera,
+            "render": render,
+            "materials": dict(self.materials),
+            "meshes": self.meshes,
+        }
+        source = self._source if self._source is not None else "<scene>"
+        try:
+            scene = Scene.model_validate(data)
+        except ValidationError as exc:
+            raise _to_scene_error(exc, source, {}, note="(override)") from None
+        scene._source = self._source
+        return scene
+
+
+
+
+#: A key path as pydantic reports it, stringified: ("meshes", "2", "material").

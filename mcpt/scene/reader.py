@@ -1,0 +1,135 @@
+"""Reading a scene file: YAML with line numbers, then validation into :class:`Scene`."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import yaml
+from pydantic import ValidationError
+
+from .diagnostics import SceneError, _dotted, _KeyPath, _to_scene_error, _type_name
+from .model import Scene
+
+
+class _SceneLoader(yaml.SafeLoader):
+    """SafeLoader that knows where things are, refuses duplicate keys and reads ``1e3`` as a float.
+
+    Usage: :meth:`compose_indexed` composes the node tree and fills :attr:`lines`; the normal
+    ``construct_document`` then builds plain Python data from it.
+    """
+
+    def __init__(self, stream: str, file: str) -> None:
+        super().__init__(stream)
+        self.file = file
+        #: key path -> 1-based line of the mapping key / sequence item; () -> the document start.
+        self.lines: dict[_KeyPath, int] = {}
+
+    def compose_indexed(self) -> yaml.Node | None:
+        """The document's root node (None for an empty document), with :attr:`lines` filled."""
+        node = self.get_single_node()
+        if node is not None:
+            self.lines[()] = node.start_mark.line + 1
+            self._index(node, (), set())
+        return node
+
+    def _index(self, node: yaml.Node, path: _KeyPath, seen: set[int]) -> None:
+        # An alias is the *same* node object as its anchor: walk it once, which keeps the walk
+        # linear (no "billion laughs") and finite for recursive aliases. Keys under an alias then
+        # fall back to the line where the alias is used, which is where the user should look.
+        if id(node) in seen:
+            return
+        seen.add(id(node))
+        if isinstance(node, yaml.SequenceNode):
+            for i, item in enumerate(node.value):
+                self.lines[path + (str(i),)] = item.start_mark.line + 1
+                self._index(item, path + (str(i),), seen)
+        elif isinstance(node, yaml.MappingNode):
+            first: dict[tuple[str, str], int] = {}
+            merges = []
+            for key_node, value_node in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":  # "<<: *base" — own keys win
+                    merges.append(value_node)
+                    continue
+                if key_node.tag == "tag:yaml.org,2002:bool" and key_node.style is None:
+                    # YAML 1.1 reads a plain `on:`/`yes:` key as True; every key here is a name.
+                    key_node.tag = "tag:yaml.org,2002:str"
+                key = self._key_text(key_node)
+                line = key_node.start_mark.line + 1
+                ident = (key_node.tag, key)  # "spp" and spp are the same key; 1 and "1" are not
+                if ident in first:
+                    raise SceneError(
+                        self.file, line, _dotted(path + (key,)),
+                        f"duplicate key {key!r} (first defined on line {first[ident]})",
+                    )
+                first[ident] = line
+                self.lines[path + (key,)] = line
+                self._index(value_node, path + (key,), seen)
+            for merged in merges:
+                for source in merged.value if isinstance(merged, yaml.SequenceNode) else [merged]:
+                    if isinstance(source, yaml.MappingNode):
+                        for key_node, _ in source.value:
+                            self.lines.setdefault(path + (self._key_text(key_node),), key_node.start_mark.line + 1)
+
+    @staticmethod
+    def _key_text(key_node: yaml.Node) -> str:
+        # Keys are compared with pydantic's loc via str(); complex keys just get a readable tag.
+        return key_node.value if isinstance(key_node, yaml.ScalarNode) else f"<{key_node.id} key>"
+
+
+# YAML 1.1 (PyYAML) needs a dot in a float and a sign in its exponent, so "1e3" and "1.0e3" would
+# be *strings*; YAML 1.2 and every human read them as numbers. Integers still win for "123"
+# because the int resolver was registered first.
+_FLOAT_12 = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$")
+_SceneLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+.0123456789"))
+
+
+def parse_scene(text: str, path: str | Path) -> Scene:
+    """Parse and validate scene YAML ``text``; ``path`` names the file (for messages) and its
+    folder anchors relative mesh paths. Raises :class:`SceneError`."""
+    path = Path(path)
+    file = str(path)
+    loader = _SceneLoader(text, file)
+    try:
+        try:
+            node = loader.compose_indexed()
+            data = None if node is None else loader.construct_document(node)
+        except yaml.MarkedYAMLError as exc:
+            mark = exc.problem_mark or exc.context_mark
+            line = mark.line + 1 if mark else None
+            what = exc.problem or "syntax error"
+            if exc.context:  # e.g. "while parsing a flow sequence", which may have begun earlier
+                started = exc.context_mark.line + 1 if exc.context_mark else line
+                where = f" (started on line {started})" if started != line else ""
+                what = f"{exc.context}{where}: {what}"
+            kind = "unsupported YAML" if isinstance(exc, yaml.constructor.ConstructorError) else "malformed YAML"
+            raise SceneError(file, line, "", f"{kind}: {what}") from None
+        except yaml.YAMLError as exc:  # e.g. a reader error on a control character
+            raise SceneError(file, None, "", f"malformed YAML: {exc}") from None
+    finally:
+        loader.dispose()
+    if node is None:
+        raise SceneError(file, 1, "", "the file is empty (expected a mapping with camera and meshes)")
+    if not isinstance(data, dict):
+        raise SceneError(
+            file, loader.lines.get(()), "",
+            f"the top level must be a mapping (camera:, meshes:, ...), got {_type_name(data)}",
+        )
+    try:
+        scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
+    except ValidationError as exc:
+        raise _to_scene_error(exc, file, loader.lines) from None
+    scene._source = path
+    return scene
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate the scene file at ``path``. Raises :class:`SceneError`."""
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8-sig")  # tolerate a BOM
+    except OSError as exc:
+        raise SceneError(path, None, "", f"cannot read scene file: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise SceneError(path, None, "", f"not UTF-8 text (byte {exc.start})") from None
+    return parse_scene(text, path)

@@ -1,0 +1,1 @@
+"""Example scenes, shipped as package data (mcpt.scene.shipped finds them)."""
