@@ -22,7 +22,8 @@ system-deps:
 $(STAMP): pyproject.toml | system-deps
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[dev]'
+	# PYTHONWARNINGS: setuptools' notes on editable installs of mapped packages are not for users.
+	PYTHONWARNINGS=ignore $(PY) -m pip install -q -e '.[dev]'
 	touch $(STAMP)
 
 setup: system-deps $(STAMP)
@@ -39,6 +40,7 @@ test-osmesa: setup
 
 bench: setup
 	$(PY) -m mcpt.bench.run --quick
+	$(PY) -m mcpt.bench.figures --bench out/bench --out bench/figures
 
 # Issue #6: the stability suite as a table (case, expected, measured, pass/fail); the same cases
 # run in CI as tests/test_stability.py. GL_BACKEND=osmesa to run it on OSMesa.

@@ -22,7 +22,7 @@ def reports_errors(fn):
 
     Anything else is a bug, still reported on one line (exit 1) unless -vv asks for the
     traceback; Ctrl-C exits 130. No command writes its image before the work is done, and images
-    are renamed into place when complete (mcpt/image.py), so no failure leaves a partial image.
+    are renamed into place when complete (mcpt/output/image.py), so no failure leaves a partial image.
     """
 
     @functools.wraps(fn)

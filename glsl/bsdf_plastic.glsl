@@ -3,7 +3,7 @@
 //   specular: a mirror reflection with the coat's Fresnel reflectance Fo = F(cos_o);
 //   diffuse:  f = A / (pi (1 - A Fdr_int)) (1 - Fo)(1 - Fi) / eta^2,
 // where light crossing the coat is scattered by the base, partly reflected back by the coat
-// from inside (Fdr_int, mcpt/materials.py) and scattered again: the geometric series gives the
+// from inside (Fdr_int, mcpt/shading/materials.py) and scattered again: the geometric series gives the
 // denominator. For a white base the two lobes reflect exactly all light (1 - Fdr_int =
 // (1 - Fdr_ext) / eta^2). The lobe is picked by u.x with probability Ps for the specular one.
 

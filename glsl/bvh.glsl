@@ -1,12 +1,12 @@
-// Closest-hit and any-hit traversal (host side: mcpt/bvh.py BVH.gpu_nodes defines the layout).
+// Closest-hit and any-hit traversal (host side: mcpt/shapes/bvh.py BVH.gpu_nodes defines the layout).
 // Interior node = 4 RGBA32UI texels, both children's boxes:
 //   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
 // child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
 #include "geometry.glsl"
 
 layout(binding = 1) uniform usamplerBuffer u_nodes;
-#define BVH_STACK 64   // >= tree depth + 2, asserted by the builder (mcpt/bvh.py MAX_STACK)
-#define BVH_MAX_LEAF 4 // triangles per leaf at most (mcpt/bvh.py GPU_MAX_LEAF, asserted there)
+#define BVH_STACK 64   // >= tree depth + 2, asserted by the builder (mcpt/shapes/bvh.py MAX_STACK)
+#define BVH_MAX_LEAF 4 // triangles per leaf at most (mcpt/shapes/bvh.py GPU_MAX_LEAF, asserted there)
 
 // Slab test. Zero direction components are replaced by a tiny value upstream (safe_inv) so no
 // 0 * inf = NaN appears; the far distance is widened by 2 gamma(3) (Ize 2013, "Robust BVH Ray

@@ -1,6 +1,6 @@
 // Pinhole camera, scene.json convention: pixel (i, j) counted from the left and the TOP, jitter
 // (sx, sy) uniform in the pixel (box filter). u_cam_right/u_cam_up are pre-scaled on the host
-// by tan(vfov/2) * aspect and tan(vfov/2) (mcpt/camera.py). The camera sits at the origin: the
+// by tan(vfov/2) * aspect and tan(vfov/2) (mcpt/shading/camera.py). The camera sits at the origin: the
 // scene is rebased relative to it on the CPU.
 uniform vec3 u_cam_forward;
 uniform vec3 u_cam_right;

@@ -1,4 +1,4 @@
-// Triangles (host side: mcpt/loader.py pack_triangles). Three RGBA32UI texels per triangle:
+// Triangles (host side: mcpt/shapes/geometry.py pack_triangles). Three RGBA32UI texels per triangle:
 //   (v0.xyz as float bits, material id), (v1.xyz, 0), (v2.xyz, 0)
 // in BVH leaf order, positions relative to the camera (rebased on the CPU in float64).
 layout(binding = 2) uniform usamplerBuffer u_tris;

@@ -1,4 +1,4 @@
-// Emissive triangles for next-event estimation (host side: mcpt/lights.py).
+// Emissive triangles for next-event estimation (host side: mcpt/shading/lights.py).
 // One RGBA32UI texel per emissive triangle: (triangle, cdf upper bound bits, pmf bits, 0), picked
 // with probability proportional to emitted power x area. A point is then sampled uniformly on
 // the triangle, so the area density is pmf / area = luminance(Le) / total power.

@@ -1,4 +1,4 @@
-// Material table and BSDF dispatch (host side: mcpt/materials.py, which documents the layout).
+// Material table and BSDF dispatch (host side: mcpt/shading/materials.py, which documents the layout).
 // MCPT_MAT_TEXELS RGBA32UI texels per material:
 //   0 (albedo.rgb, type)  1 (emission.rgb, light_pdf_area)              -- always
 //   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS == 4

@@ -1,4 +1,4 @@
-// Smooth shading normals (host side: mcpt/loader.py pack_normals). One RGBA32UI texel per
+// Smooth shading normals (host side: mcpt/shading/normals.py pack_normals). One RGBA32UI texel per
 // triangle (BVH order): the three corner normals, octahedral-encoded as two 16-bit snorms each
 // (Cigolle et al. 2014, "A Survey of Efficient Representations for Independent Unit Vectors").
 layout(binding = 7) uniform usamplerBuffer u_normals;

@@ -35,7 +35,7 @@ float power_heuristic(float a, float b) {
 // Bounce convention (scene.json): emission seen at hit k ends a path with k - 1 scattering
 // events; scattering at hit k is bounce k, allowed while k <= MCPT_BOUNCES.
 //
-// Sampling (mcpt/features.py): with MCPT_MIS, every vertex with a non-delta lobe takes one light
+// Sampling (mcpt/gpu/features.py): with MCPT_MIS, every vertex with a non-delta lobe takes one light
 // sample and one BSDF sample, weighted by the power heuristic; emission found after a delta
 // (specular) bounce, or by the camera ray, has weight 1. NEE-only (MCPT_NEE without MCPT_MIS)
 // gives the light sample weight 1 and ignores emitters found by BSDF sampling unless the previous

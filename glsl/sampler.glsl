@@ -1,4 +1,4 @@
-// Pre-generated random numbers (host side: mcpt/sampler.py, which documents the layout).
+// Pre-generated random numbers (host side: mcpt/shading/sampler.py, which documents the layout).
 // Dimension-major: number `dim` of pixel p of the current tile is at dim * u_rand_stride + p
 // (u_rand_stride = the tile's pixel count). Neighbouring pixels, which llvmpipe and GPUs shade
 // side by side in one SIMD batch, then read neighbouring addresses for the same dimension: one

@@ -1,4 +1,4 @@
-// Albedo textures (host side: mcpt/textures.py documents the buffer; UVs: mcpt/loader.py).
+// Albedo textures (host side: mcpt/shading/texture.py documents the buffer; UVs: pack_uvs there).
 // Texels stay sRGB-encoded, 8 bits a channel; each of the four taps of a bilinear lookup is
 // decoded to linear RGB before the interpolation, as a GPU's sRGB texture does.
 layout(binding = 8) uniform usamplerBuffer u_uvs;       // 2 texels per triangle (BVH order)

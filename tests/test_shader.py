@@ -15,7 +15,7 @@ def test_every_feature_define_used_in_glsl_is_declared():
     for path in glsl_dir().iterdir():
         used |= set(re.findall(r"\bMCPT_[A-Z0-9_]+\b", path.read_text()))
     assert used, "no defines found: the scan is broken"
-    assert used <= declared, f"used in glsl/ but not emitted by mcpt/features.py: {used - declared}"
+    assert used <= declared, f"used in glsl/ but not emitted by mcpt/gpu/features.py: {used - declared}"
 
 
 def test_every_define_is_emitted_as_a_number():

@@ -1,4 +1,4 @@
-"""The stability suite of issue #6 (bench/stability_cases.py), one test per case.
+"""The stability suite of issue #6 (bench/stability/), one test per case.
 
 The same cases print as a table with `make stability`. A case with a known cause outside this
 suite's reach is xfail(strict=True): its reason names the fix, and fixing it makes the test
@@ -7,7 +7,7 @@ fail until the mark is removed.
 
 import pytest
 
-from mcpt.bench import stability_cases as stability
+from mcpt.bench import stability
 
 
 @pytest.fixture(scope="module")

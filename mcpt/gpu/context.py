@@ -185,7 +185,7 @@ _shared: dict[str, GLContext] = {}
 
 def shared_context(backend: str | None = None) -> GLContext:
     """One context per back end per process, created on first use: creating one costs ~50 ms and
-    compiled programs are cached on it (mcpt/shader.py)."""
+    compiled programs are cached on it (mcpt/gpu/shader.py)."""
     key = (backend or os.environ.get("MCPT_GL_BACKEND") or "auto").lower()
     if key not in _shared:
         _shared[key] = create_context(key)

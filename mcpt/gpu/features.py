@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, replace
 # segments = 4 scattering events; we start a little earlier, it is unbiased either way).
 RR_START = 3
 
-# Random numbers each path vertex consumes (mcpt/sampler.py documents the layout):
+# Random numbers each path vertex consumes (mcpt/shading/sampler.py documents the layout):
 # light choice, light point (2), BSDF direction (2), roulette. Materials with two lobes (plastic,
 # dielectric) choose the lobe with the first BSDF number, so no feature adds dimensions.
 DIMS_CAMERA = 2

@@ -3,7 +3,7 @@
 Each pass renders one sample per pixel into an RGBA32F target with additive blending; every
 ``chunk`` passes the float32 target is read back, added into a float64 sum and cleared, so the
 average never loses precision, however many passes (the thesis averaged 8-bit images). Each pass
-gets fresh random numbers (mcpt/sampler.py) in one of two buffer textures used in turn, so
+gets fresh random numbers (mcpt/shading/sampler.py) in one of two buffer textures used in turn, so
 writing the next pass's numbers never waits for the draw that reads the previous ones.
 
 Large images are split into tiles (scissored draws): this bounds the random-number buffer by

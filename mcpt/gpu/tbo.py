@@ -28,15 +28,15 @@ GL_R32F = 0x822E
 # Texture unit of every buffer the shaders read; the GLSL side uses the same numbers
 # (glsl/*.glsl `layout(binding = N)`), checked by tests/test_shader.py.
 UNITS = {
-    "nodes": 1,       # BVH interior nodes, 4 texels each (mcpt/bvh.py BVH.gpu_nodes)
-    "tris": 2,        # triangle vertices, 3 texels each (mcpt/loader.py pack_triangles)
-    "lights": 3,      # emissive triangle table, 1 texel each (mcpt/lights.py)
-    "materials": 4,   # material table, 2 or 4 texels each (mcpt/materials.py)
-    "random": 5,      # per-pass random numbers, 1 float each (mcpt/sampler.py)
+    "nodes": 1,       # BVH interior nodes, 4 texels each (mcpt/shapes/bvh.py BVH.gpu_nodes)
+    "tris": 2,        # triangle vertices, 3 texels each (mcpt/shapes/geometry.py)
+    "lights": 3,      # emissive triangle table, 1 texel each (mcpt/shading/lights.py)
+    "materials": 4,   # material table, 2 or 4 texels each (mcpt/shading/materials.py)
+    "random": 5,      # per-pass random numbers, 1 float each (mcpt/shading/sampler.py)
     "probe": 6,       # test-only probe data
-    "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/loader.py)
-    "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/loader.py)
-    "textures": 9,    # albedo images: headers + sRGB texels (mcpt/textures.py)
+    "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/shading/normals.py)
+    "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/shading/texture.py)
+    "textures": 9,    # albedo images: headers + sRGB texels (mcpt/shading/texture.py)
 }
 
 

@@ -107,7 +107,7 @@ class _Model(BaseModel):
 
 
 
-#: 8-bit image formats OpenCV reads for textures (mcpt/textures.py); others are refused here.
+#: 8-bit image formats OpenCV reads for textures (mcpt/shading/texture.py); others are refused here.
 TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 
 

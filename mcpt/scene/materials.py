@@ -12,7 +12,7 @@ from .fields import Albedo, Radiance, _Model, _fixed_list, _texture_file
 
 
 class ImageTexture(_Model):
-    """An image used as a colour (mcpt/textures.py), addressed by the mesh's UVs.
+    """An image used as a colour (mcpt/shading/texture.py), addressed by the mesh's UVs.
 
     8-bit images are sRGB-encoded and decoded to linear RGB; the alpha channel is ignored. UV
     (0, 0) is the image's bottom-left corner (OBJ convention: v points up).
@@ -63,7 +63,7 @@ MATERIAL_KEYS = {
 
 
 class Material(_Model):
-    """A surface material (GLSL: glsl/bsdf_<type>.glsl; table: mcpt/materials.py).
+    """A surface material (GLSL: glsl/bsdf_<type>.glsl; table: mcpt/shading/materials.py).
 
     * ``diffuse``: Lambertian, reflectance ``albedo`` (or ``albedo_texture``).
     * ``conductor``: metal; ``albedo`` is the reflectance at normal incidence, Schlick's Fresnel

@@ -5,7 +5,7 @@ Every emissive triangle is a light, picked with probability proportional to its 
 light triangle. One RGBA32UI texel per light: (triangle index, cdf upper bound, pmf, 0).
 With a point sampled uniformly on the chosen triangle, the density per unit area is
 ``pmf / area = luminance(Le) / total power`` for every light: a per-MATERIAL constant that the
-material table carries for MIS (mcpt/materials.py).
+material table carries for MIS (mcpt/shading/materials.py).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@
 
     0: albedo.rgb, type id          albedo: diffuse reflectance; conductor: Schlick F0
     1: emission.rgb, light_pdf_area density with which NEE picks a point of this material
-                                    per unit area (needed for MIS, mcpt/lights.py)
+                                    per unit area (needed for MIS, mcpt/shading/lights.py)
     2: alpha, ior, texture, flags   GGX alpha (conductor), index of refraction (dielectric,
                                     plastic), albedo texture id (0xffffffff: none), flags
     3: sigma_a.rgb, fdr_int         absorption coefficient per unit length (dielectric);

@@ -5,7 +5,7 @@ ignored) and kept **sRGB-encoded**, 8 bits per channel: the shader decodes each 
 RGB with the exact sRGB curve and filters in linear RGB, like a GPU's SRGB8 texture. That keeps a
 texel at 4 bytes and every decoded value exact (a float16 copy would take 8).
 
-All textures of a scene share one RGBA32UI buffer texture ("textures", mcpt/tbo.py):
+All textures of a scene share one RGBA32UI buffer texture ("textures", mcpt/gpu/tbo.py):
 
     texel j < n:        header of texture j: (first data texel, width, height, flags)
                         flags: bits 0-1 wrap (0 repeat, 1 clamp, 2 mirror), bit 2 nearest filter

@@ -3,7 +3,7 @@
     .venv/bin/python -m mcpt.bench.stability [--gl-backend egl|osmesa] [--only TEXT ...] [--json FILE]
 
 Columns: group, case, expected, measured, result (PASS, FAIL, or KNOWN FAIL for a case whose
-cause and fix are reported, see bench/stability_cases.py), seconds. The cases are the ones
+cause and fix are reported, see bench/stability/), seconds. The cases are the ones
 tests/test_stability.py runs in CI. Exit status 1 when a case fails that is not a known failure.
 """
 
@@ -17,7 +17,7 @@ import textwrap
 import time
 from pathlib import Path
 
-from . import stability_cases as stability
+from mcpt.bench import stability
 
 GROUP_ORDER = ["furnace", "scale", "offset", "watertight", "lights", "geometry", "limits",
                "non-finite", "determinism", "llvmpipe"]
