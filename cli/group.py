@@ -12,6 +12,11 @@ from mcpt import __version__
 from mcpt.errors import McptError
 
 
+def _command_name() -> str:
+    ctx = click.get_current_context(silent=True)
+    return ctx.info_name if ctx is not None and ctx.parent is not None else "COMMAND"
+
+
 def _verbosity() -> int:
     ctx = click.get_current_context(silent=True)
     return int(ctx.find_root().params.get("verbose") or 0) if ctx else 0
@@ -39,8 +44,8 @@ def reports_errors(fn):
             if _verbosity() >= 2:
                 raise
             msg = " ".join(str(exc).split())
-            click.echo(f"mcpt: internal error: {type(exc).__name__}: {msg} (run with -vv for the "
-                       "traceback)", err=True)
+            click.echo(f"mcpt: internal error: {type(exc).__name__}: {msg} (run 'mcpt -vv "
+                       f"{_command_name()} ...' for the traceback)", err=True)
             sys.exit(1)
 
     return wrapper

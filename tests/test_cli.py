@@ -107,10 +107,32 @@ def test_bad_option_values(folder, args, needles):
     assert_fails_cleanly(invoke("scene.yaml", *args, "-o", "out.exr"), folder, *needles)
 
 
-def test_output_in_a_missing_folder(folder):
-    r = invoke("scene.yaml", "-o", "nowhere/out.exr")
-    assert_fails_cleanly(r, folder, "nowhere/out.exr", "does not exist", output="nowhere/out.exr")
-    assert not (folder / "nowhere").exists()
+def test_output_in_a_missing_folder_creates_it(folder):
+    """Issue #10: `-o renders/x.exr` (and the default out/render.exr) create the folder."""
+    r = invoke("scene.yaml", "-o", "nowhere/deeper/out.exr")
+    assert r.exit_code == 0, r.output
+    assert (folder / "nowhere" / "deeper" / "out.exr").stat().st_size > 0
+
+
+def test_output_under_a_file_fails_before_rendering(folder, monkeypatch):
+    """A folder that cannot be created or written is reported before the render, one line."""
+    from mcpt.gpu import render as render_mod
+
+    (folder / "plain").write_text("a file, not a folder")
+    monkeypatch.setattr(render_mod.Renderer, "render", lambda *a, **k: pytest.fail("rendered"))
+    assert_fails_cleanly(invoke("scene.yaml", "-o", "plain/out.exr"), folder, "plain/out.exr",
+                         "cannot write", output="plain/out.exr")
+
+
+def test_unwritable_second_output_writes_nothing_and_renders_nothing(folder, monkeypatch):
+    """Issue #10: with two outputs and the second folder unwritable, the first is not written."""
+    from mcpt.gpu import render as render_mod
+
+    (folder / "plain").write_text("x")
+    with_sentinel(folder)
+    monkeypatch.setattr(render_mod.Renderer, "render", lambda *a, **k: pytest.fail("rendered"))
+    assert_fails_cleanly(invoke("scene.yaml", "-o", "out.exr", "-o", "plain/b.exr"), folder,
+                         "plain/b.exr", "cannot write")
 
 
 @pytest.mark.parametrize("name", ["out.jpg", "out", "out.EXRX"])
@@ -119,10 +141,12 @@ def test_output_with_an_unknown_extension(folder, name):
                          output=name)
 
 
-def test_output_that_is_a_folder(folder):
-    (folder / "dir.exr").mkdir()
-    assert_fails_cleanly(invoke("scene.yaml", "-o", "dir.exr"), folder, "dir.exr", "folder",
-                         output="dir.exr/x")
+@pytest.mark.parametrize("name", ["dir.exr", "dir"])
+def test_output_that_is_a_folder(folder, name):
+    (folder / name).mkdir()
+    line = assert_fails_cleanly(invoke("scene.yaml", "-o", name), folder, name, "existing folder",
+                                output=f"{name}/x")
+    assert "unknown image format" not in line
 
 
 def test_second_output_bad_writes_nothing(folder):
@@ -209,6 +233,70 @@ def test_bad_meshes(folder, obj, needles):
                          folder, *needles)
 
 
+def test_bad_mesh_names_the_scene_line_and_key_too(folder):
+    (folder / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 nan\nf 1 2 3\n")
+    text = scene_with(folder, "file: floor.obj", "file: m.obj")
+    assert_fails_cleanly(invoke(text, "-o", "out.exr"), folder, "bad.yaml:15: meshes.0.file:", "m.obj:3:")
+
+
+def _textured(folder: Path, texture: str) -> str:
+    return scene_with(folder, "    albedo: [0.5, 0.5, 0.5]", f"    albedo_texture: {texture}")
+
+
+def test_texture_that_is_not_an_image_is_a_user_error(folder):
+    """Issue #10: exit 2 (not 'internal error'), naming the scene line and key and the file."""
+    (folder / "fake.png").write_text("this is text, not a PNG")
+    with_sentinel(folder)
+    assert_fails_cleanly(invoke(_textured(folder, "fake.png"), "-o", "out.exr"), folder,
+                         "bad.yaml:", "materials.glow.albedo_texture", "fake.png", "cannot read the image")
+
+
+def test_texture_with_an_unsupported_extension_names_it(folder):
+    (folder / "tex.gif").write_bytes(b"GIF89a")
+    line = assert_fails_cleanly(invoke(_textured(folder, "tex.gif"), "-o", "out.exr"), folder,
+                                "materials.glow.albedo_texture", "'.gif'")
+    assert "{" not in line
+
+
+def test_yaml_alias_bomb_fails_fast_in_one_line(folder):
+    """Issue #10: nine levels of nine aliases (9^9 values) must fail in well under a second."""
+    import time
+
+    levels = ['&a ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+    for prev, cur in zip("abcdefgh", "bcdefghi"):
+        levels.append(f"&{cur} [" + ", ".join([f"*{prev}"] * 9) + "]")
+    text = scene_with(folder, "materials:", "name: [" + ", ".join(levels) + "]\nmaterials:")
+    t0 = time.perf_counter()
+    line = assert_fails_cleanly(invoke(text, "-o", "out.exr"), folder, "bad.yaml", "aliases")
+    assert time.perf_counter() - t0 < 1.0
+    assert len(line) < 400
+
+
+def test_misspelt_key_is_named_with_a_suggestion(folder):
+    """Issue #10: `fov` for `vfov_deg` names the unknown key and suggests the missing one."""
+    line = assert_fails_cleanly(invoke(scene_with(folder, "  vfov_deg: 60", "  fov: 60"), "-o", "out.exr"),
+                                folder, "camera.fov", "unknown key 'fov'", "did you mean 'vfov_deg'")
+    assert "missing" not in line
+
+
+def test_huge_value_is_not_echoed_whole(folder):
+    name = "x" * 30_000
+    line = assert_fails_cleanly(invoke(scene_with(folder, "material: glow", f"material: {name}"), "-o", "out.exr"),
+                                folder, "meshes.0.material", "undefined material")
+    assert len(line) < 500
+
+
+def test_internal_error_hint_works_as_typed(folder, monkeypatch):
+    """The hint names the place -vv goes (before the command), and doing that shows the traceback."""
+    from mcpt.gpu import render as render_mod
+
+    monkeypatch.setattr(render_mod.Renderer, "render", lambda *a, **k: (_ for _ in ()).throw(ValueError("boom")))
+    r = CliRunner().invoke(main, ["render", "scene.yaml", "-o", "out.exr"])
+    assert "run 'mcpt -vv render ...'" in r.stderr
+    r = CliRunner().invoke(main, ["-vv", "render", "scene.yaml", "-o", "out.exr"])
+    assert isinstance(r.exception, ValueError)
+
+
 def test_unsupported_mesh_format(folder):
     (folder / "m.xyz").write_text("hello world\n")
     with_sentinel(folder)
@@ -276,7 +364,6 @@ def test_interrupted_render_leaves_no_image(folder, monkeypatch):
 @pytest.mark.parametrize("suffix", [".exr", ".png"])
 def test_failed_write_leaves_old_image_and_no_temporary_file(folder, monkeypatch, suffix):
     """The writer dies half-way (disk full): one line, the old image intact, no temporary."""
-    import cv2
     import OpenEXR
 
     def half_written(tmp, *a, **k):
@@ -285,8 +372,10 @@ def test_failed_write_leaves_old_image_and_no_temporary_file(folder, monkeypatch
 
     if suffix == ".exr":
         monkeypatch.setattr(OpenEXR.File, "write", lambda self, tmp: half_written(tmp))
-    else:
-        monkeypatch.setattr(cv2, "imwrite", half_written)
+    else:  # PNGs are encoded in memory and written by Python (one OSError, no libpng warning)
+        from mcpt.output import image
+
+        monkeypatch.setattr(image, "_write_bytes", half_written)
     with_sentinel(folder, "out" + suffix)
     r = invoke("scene.yaml", "-o", "out" + suffix)
     assert r.exit_code == 2, r.output

@@ -24,15 +24,24 @@ class ImageError(McptError, ValueError):
 
 
 def check_output_path(path: str | Path) -> Path:
-    """Fail early (before rendering) on an unknown extension or a missing folder."""
+    """Fail early, before any rendering, on an output that could not be written: an existing
+    folder, an unknown extension, or a folder where no file can be created. A missing folder is
+    created (``-o renders/a.exr`` should just work)."""
     p = Path(path)
+    if p.is_dir():
+        raise ImageError(f"{p}: is an existing folder, not an image file")
     if p.suffix.lower() not in FORMATS:
         raise ImageError(f"{p}: unknown image format {p.suffix or '(none)'!r}; use .exr or .png")
     parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise ImageError(f"{p}: output folder {parent} does not exist")
-    if p.is_dir():
-        raise ImageError(f"{p}: is a folder")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        # Permission bits do not tell (root ignores them; read-only mounts): create and remove
+        # a temporary file where the image will be written.
+        fd, probe = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".check", dir=parent)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise ImageError(f"{p}: cannot write in {parent}: {exc.strerror or exc}") from None
     return p
 
 
@@ -104,11 +113,18 @@ def write_png(path: str | Path, rgb: np.ndarray, exposure: float = 0.0) -> None:
     p = check_output_path(path)
     bgr = to_srgb8(rgb, exposure)[..., ::-1]
 
-    def write(tmp):
-        if not cv2.imwrite(tmp, np.ascontiguousarray(bgr)):
-            raise ImageError(f"{p}: OpenCV could not write the PNG")
+    ok, data = cv2.imencode(".png", np.ascontiguousarray(bgr))
+    if not ok:  # pragma: no cover - encoding an 8-bit array in memory does not fail
+        raise ImageError(f"{p}: OpenCV could not encode the PNG")
 
-    _atomic(p, write)
+    # Written by Python, not by OpenCV's file writer, so a full disk is one OSError (one error
+    # line), not a libpng warning on stderr followed by a failure.
+    _atomic(p, lambda tmp: _write_bytes(tmp, data.tobytes()))
+
+
+def _write_bytes(path: str, data: bytes) -> None:
+    with open(path, "wb") as f:
+        f.write(data)
 
 
 def write_image(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,

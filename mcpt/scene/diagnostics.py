@@ -7,6 +7,7 @@ every key, and this module maps one onto the other and words the message for a p
 from __future__ import annotations
 
 import difflib
+import reprlib
 import types
 import typing
 from pathlib import Path
@@ -18,6 +19,28 @@ from ..errors import McptError
 
 #: A key path as pydantic reports it, stringified: ("meshes", "2", "material").
 _KeyPath = tuple[str, ...]
+
+
+#: Longest reason a SceneError prints (characters); longer ones are cut in the middle.
+MAX_REASON = 300
+
+# Bounded repr of what was read: never formats an unbounded value (a YAML alias bomb expands to
+# 9^9 items; formatting it all took 50 s and 3 GB before the message was cut).
+_REPR = reprlib.Repr()
+_REPR.maxstring, _REPR.maxother, _REPR.maxlist, _REPR.maxtuple, _REPR.maxdict, _REPR.maxlevel = 40, 40, 4, 4, 4, 2
+
+
+def clip(text: str, limit: int) -> str:
+    """``text`` cut to at most ``limit`` characters, the cut marked with an ellipsis."""
+    if len(text) <= limit:
+        return text
+    head = (limit - 1) * 2 // 3
+    return text[:head] + "…" + text[len(text) - (limit - 1 - head):]
+
+
+def shown(value: Any) -> str:
+    """A short repr of a value read from the file, whatever its size."""
+    return _REPR.repr(value)
 
 
 class SceneError(McptError):
@@ -32,8 +55,9 @@ class SceneError(McptError):
         self.file = str(file)
         self.line = line
         self.key = key
-        # One line, always: the message is meant to be printed as a compiler-style diagnostic.
-        self.reason = " ".join(str(reason).split())
+        # One line, always: the message is meant to be printed as a compiler-style diagnostic,
+        # and bounded (a 30 000-character name must not come back whole).
+        self.reason = clip(" ".join(str(reason).split()), MAX_REASON)
         where = self.file if line is None else f"{self.file}:{line}"
         parts = [where] + ([key] if key else []) + [self.reason]
         super().__init__(": ".join(parts))
@@ -100,7 +124,7 @@ def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
     return model
 
 
-def _describe(err: dict[str, Any], loc: tuple[Any, ...]) -> str:
+def _describe(err: dict[str, Any], loc: tuple[Any, ...], missing: tuple[str, ...] = ()) -> str:
     """A friendlier one-line message for one pydantic error dict."""
     kind, value = err["type"], err.get("input")
     if kind == "value_error" and "error" in err.get("ctx", {}):
@@ -110,17 +134,17 @@ def _describe(err: dict[str, Any], loc: tuple[Any, ...]) -> str:
     if kind == "extra_forbidden":
         model = _model_at(loc[:-1])
         if model is None:
-            return f"unknown key {loc[-1]!r}"
+            return f"unknown key {shown(loc[-1])}"
         allowed = [f.alias or name for name, f in model.model_fields.items()]
-        close = difflib.get_close_matches(str(loc[-1]), allowed, n=1)
+        # A required key missing from the same mapping is the likeliest meaning of a typo
+        # ("fov" for vfov_deg), even where the spelling is too far off for difflib.
+        close = difflib.get_close_matches(str(loc[-1]), list(missing) or allowed, n=1, cutoff=0.0 if missing else 0.6)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        return f"unknown key {loc[-1]!r} (allowed: {', '.join(allowed)}){hint}"
+        return f"unknown key {shown(loc[-1])} (allowed: {', '.join(allowed)}){hint}"
     msg = err["msg"]
     if kind.endswith("_type") or kind in ("finite_number", "is_instance_of"):
         # Show what was actually read: "abc" (str), True (bool), 1000.0 (float from 1e3) ...
-        shown = repr(value)
-        shown = shown if len(shown) <= 40 else shown[:37] + "..."
-        msg = f"{msg}, got {_type_name(value)} {shown}"
+        msg = f"{msg}, got {_type_name(value)} {shown(value)}"
         if kind == "int_type" and isinstance(value, float) and value.is_integer():
             msg += f" (write {int(value)}: an exponent or decimal point makes a float)"
     return msg
@@ -129,11 +153,19 @@ def _describe(err: dict[str, Any], loc: tuple[Any, ...]) -> str:
 def _to_scene_error(
     exc: ValidationError, file: str | Path, lines: dict[_KeyPath, int], note: str = ""
 ) -> SceneError:
-    """The first pydantic error as a :class:`SceneError` pointing at the file's line."""
-    err = exc.errors()[0]
+    """The first pydantic error as a :class:`SceneError` pointing at the file's line.
+
+    An unknown key is reported before a missing one: a misspelt key causes both, and the
+    misspelling is what the user has to fix (with the missing key as the suggestion).
+    """
+    errors = exc.errors()
+    extra = [e for e in errors if e["type"] == "extra_forbidden"]
+    err = extra[0] if extra else errors[0]
     loc = tuple(err["loc"])
+    missing = tuple(str(e["loc"][-1]) for e in errors
+                    if e["type"] == "missing" and tuple(e["loc"][:-1]) == loc[:-1])
     cause = err.get("ctx", {}).get("error")
     if isinstance(cause, _FieldError):  # a cross-field check blamed a specific sub-field
         loc += cause.path
-    reason = _describe(err, loc) + (f" {note}" if note else "")
+    reason = _describe(err, loc, missing) + (f" {note}" if note else "")
     return SceneError(file, _line_of(lines, loc) if lines else None, _dotted(loc), reason)

@@ -134,8 +134,9 @@ def _texture_file(value: Any, info: ValidationInfo) -> Any:
     if not value.is_file():
         raise PydanticCustomError("texture_missing", "texture file not found: {path}", {"path": str(value)})
     if value.suffix.lower() not in TEXTURE_SUFFIXES:
+        # pydantic's templates know {name} only, not {name!r}: quote here.
         raise PydanticCustomError(
-            "texture_kind", "unsupported texture format {suffix!r} (use one of {ok})",
-            {"suffix": value.suffix, "ok": ", ".join(TEXTURE_SUFFIXES)},
+            "texture_kind", "unsupported texture format {suffix} (use one of {ok})",
+            {"suffix": repr(value.suffix or "(none)"), "ok": ", ".join(TEXTURE_SUFFIXES)},
         )
     return value

@@ -158,6 +158,7 @@ class Scene(_Model):
     """The meshes, at least one (required)."""
 
     _source: Path | None = PrivateAttr(default=None)
+    _lines: dict = PrivateAttr(default_factory=dict)  # key path (strings) -> line, from the reader
 
     @model_validator(mode="after")
     def _check_material_names(self) -> Scene:
@@ -174,6 +175,15 @@ class Scene(_Model):
     def source_path(self) -> Path | None:
         """The YAML file this scene was read from (None if built otherwise)."""
         return self._source
+
+    def where(self, *key) -> str:
+        """``file:line: key.path`` of a key of this scene, for errors found after validation
+        (a mesh that Assimp cannot read, a texture that is not an image)."""
+        from .diagnostics import _dotted, _line_of
+
+        line = _line_of(self._lines, key) if self._lines else None
+        file = str(self._source) if self._source is not None else "<scene>"
+        return f"{file}:{line}: {_dotted(key)}" if line else f"{file}: {_dotted(key)}"
 
     def with_overrides(
         self,
@@ -210,6 +220,7 @@ class Scene(_Model):
         except ValidationError as exc:
             raise _to_scene_error(exc, source, {}, note="(override)") from None
         scene._source = self._source
+        scene._lines = self._lines
         return scene
 
 

@@ -11,6 +11,34 @@ from pydantic import ValidationError
 from .diagnostics import SceneError, _dotted, _KeyPath, _to_scene_error, _type_name
 from .model import Scene
 
+#: Largest scene file read (bytes): scenes are small, meshes live in their own files.
+MAX_FILE_BYTES = 16 * 2**20
+#: Most values a document may expand to once its aliases are followed. YAML aliases share one
+#: node, so "billion laughs" documents are tiny to read but explode for anything that walks the
+#: data (validation, error messages): refuse them before that.
+MAX_VALUES = 100_000
+
+
+def _expanded_size(node: yaml.Node, memo: dict[int, int], active: set[int]) -> int:
+    """Values ``node`` stands for with every alias expanded (memoised: linear in the node graph);
+    a node that contains itself counts as unbounded."""
+    key = id(node)
+    if key in memo:
+        return memo[key]
+    if key in active:
+        return MAX_VALUES + 1
+    active.add(key)
+    if isinstance(node, yaml.SequenceNode):
+        size = 1 + sum(_expanded_size(n, memo, active) for n in node.value)
+    elif isinstance(node, yaml.MappingNode):
+        size = 1 + sum(_expanded_size(k, memo, active) + _expanded_size(v, memo, active)
+                       for k, v in node.value)
+    else:
+        size = 1
+    active.discard(key)
+    memo[key] = size = min(size, MAX_VALUES + 1)
+    return size
+
 
 class _SceneLoader(yaml.SafeLoader):
     """SafeLoader that knows where things are, refuses duplicate keys and reads ``1e3`` as a float.
@@ -30,6 +58,10 @@ class _SceneLoader(yaml.SafeLoader):
         node = self.get_single_node()
         if node is not None:
             self.lines[()] = node.start_mark.line + 1
+            if _expanded_size(node, {}, set()) > MAX_VALUES:
+                raise SceneError(self.file, self.lines[()], "",
+                                 f"the document expands to more than {MAX_VALUES} values through "
+                                 "YAML aliases (&anchor / *alias); a scene needs far fewer")
             self._index(node, (), set())
         return node
 
@@ -120,6 +152,7 @@ def parse_scene(text: str, path: str | Path) -> Scene:
     except ValidationError as exc:
         raise _to_scene_error(exc, file, loader.lines) from None
     scene._source = path
+    scene._lines = dict(loader.lines)
     return scene
 
 
@@ -127,6 +160,9 @@ def load_scene(path: str | Path) -> Scene:
     """Read and validate the scene file at ``path``. Raises :class:`SceneError`."""
     path = Path(path)
     try:
+        if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
+            raise SceneError(path, None, "", f"{path.stat().st_size} bytes is not a scene file "
+                             f"(at most {MAX_FILE_BYTES // 2**20} MiB; meshes go in their own files)")
         text = path.read_bytes().decode("utf-8-sig")  # tolerate a BOM
     except OSError as exc:
         raise SceneError(path, None, "", f"cannot read scene file: {exc.strerror or exc}") from None

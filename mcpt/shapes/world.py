@@ -23,10 +23,10 @@ from ..errors import McptError
 from ..scene import Scene
 from ..shading.lights import Lights, build_lights
 from ..shading.materials import MaterialTable
-from ..shading.texture import Texture, load_texture
+from ..shading.texture import Texture, TextureError, load_texture
 from . import geometry
 from .bvh import BVH, build_bvh
-from .mesh import first_of_duplicates, load_mesh
+from .mesh import MeshError, first_of_duplicates, load_mesh
 
 log = logging.getLogger("mcpt")
 
@@ -72,17 +72,21 @@ def load_world(scene: Scene) -> World:
     textures: list[Texture] = []
     texture_index: dict = {}
 
-    def texture_id(spec) -> int:
+    def texture_id(spec, material: str) -> int:
         key = (str(spec.file), spec.wrap, spec.filter)
         if key not in texture_index:
+            try:
+                texture = load_texture(spec.file, spec.wrap, spec.filter)
+            except TextureError as exc:  # name the scene line and key, not only the image
+                raise TextureError(f"{scene.where('materials', material, 'albedo_texture')}: {exc}") from None
             texture_index[key] = len(textures)
-            textures.append(load_texture(spec.file, spec.wrap, spec.filter))
+            textures.append(texture)
         return texture_index[key]
 
     def material_id(key, name, mtype, kd, ke, ym=None):
         if key not in index:
             index[key] = len(cols["names"])
-            tex = texture_id(ym.albedo_texture) if ym is not None and ym.albedo_texture else -1
+            tex = texture_id(ym.albedo_texture, name) if ym is not None and ym.albedo_texture else -1
             if tex >= 0:
                 kd = tuple(textures[tex].mean_linear())  # informative only: the shader reads texels
             sigma = (0.0, 0.0, 0.0)
@@ -102,8 +106,11 @@ def load_world(scene: Scene) -> World:
         ym = scene.materials[spec.material] if spec.material is not None else None
         need_normals = bool(ym is not None and ym.smooth_normals)
         need_uvs = bool(ym is not None and ym.albedo_texture is not None)
-        mesh = load_mesh(spec.file, spec.transform.matrix(), need_normals=need_normals,
-                         need_uvs=need_uvs)
+        try:
+            mesh = load_mesh(spec.file, spec.transform.matrix(), need_normals=need_normals,
+                             need_uvs=need_uvs)
+        except MeshError as exc:  # name the scene line and key too, not only the mesh file
+            raise MeshError(f"{scene.where('meshes', mi, 'file')}: {exc}") from None
         dropped += mesh.dropped_degenerate
         dropped_dup += mesh.dropped_duplicate
         ids = np.empty(len(mesh.materials), np.int32)
