@@ -88,16 +88,25 @@ def _atomic(path: Path, write) -> None:
         raise
 
 
-def write_exr(path: str | Path, rgb: np.ndarray, metadata: dict | None = None) -> None:
+def write_exr(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
+              layers: dict[str, tuple[np.ndarray, str]] | None = None) -> None:
+    """Linear float32 EXR (ZIP). ``layers``: extra channel groups by layer name, each an
+    (H, W, len(names)) array and its channel letters, written as ``layer.X`` channels (the
+    ``layer.channel`` convention compositors and OIDN tools read), e.g.
+    ``{"albedo": (a, "RGB"), "normal": (n, "XYZ"), "depth": (d, "Z")}``."""
     import OpenEXR
 
     p = check_output_path(path)
-    pixels = np.ascontiguousarray(rgb, dtype=np.float32)  # OpenEXR rejects float64
+    channels = {"RGB": np.ascontiguousarray(rgb, dtype=np.float32)}  # OpenEXR rejects float64
+    for layer, (data, names) in (layers or {}).items():
+        data = np.asarray(data, np.float32).reshape(*channels["RGB"].shape[:2], len(names))
+        for i, c in enumerate(names):
+            channels[f"{layer}.{c}"] = np.ascontiguousarray(data[..., i])
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     for k, v in (metadata or {}).items():
         # Ints > 2^31 and floats needing double precision would be mangled: store them as text.
         header[k] = v if isinstance(v, str) else str(v)
-    _atomic(p, lambda tmp: OpenEXR.File(dict(header), {"RGB": pixels}).write(tmp))
+    _atomic(p, lambda tmp: OpenEXR.File(dict(header), channels).write(tmp))
 
 
 def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
@@ -105,6 +114,14 @@ def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
 
     with OpenEXR.File(str(path)) as f:
         return np.array(f.channels()["RGB"].pixels, np.float32), dict(f.header())
+
+
+def read_exr_channels(path: str | Path) -> dict[str, np.ndarray]:
+    """Every channel of an EXR by its full name (``R``, ``albedo.G``, ``depth.Z``, ...)."""
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {k: np.array(c.pixels, np.float32) for k, c in f.channels().items()}
 
 
 def write_png(path: str | Path, rgb: np.ndarray, exposure: float = 0.0) -> None:
@@ -128,8 +145,9 @@ def _write_bytes(path: str, data: bytes) -> None:
 
 
 def write_image(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
-                exposure: float = 0.0) -> None:
+                exposure: float = 0.0, layers: dict | None = None) -> None:
+    """EXR (with ``layers``, see :func:`write_exr`) or sRGB PNG (the beauty only) by extension."""
     if Path(path).suffix.lower() == ".exr":
-        write_exr(path, rgb, metadata)
+        write_exr(path, rgb, metadata, layers)
     else:
         write_png(path, rgb, exposure)
