@@ -10,7 +10,7 @@
 //   mode 5  texture_rgb(p.z, uv = p.xy) -> (rgb, 0)
 //   mode 6  shading_normal_raw(tri = p.x, bary = p.yz), normalised -> (n.xyz, 0)
 //   mode 7  bsdf_sample(u = p.xy)      -> (eta2, 0, 0, 0)
-//   mode 8  fresnel_conductor(cos = p.x, eta = p.yzw, k = u_k) -> (F.rgb, 0)
+//   mode 8  fresnel_conductor(cos = p.x, eta = p.y, k = p.z; the same in each channel) -> (F.rgb, 0)
 #include "common.glsl"
 #include "materials.glsl"
 #if MCPT_NEE
@@ -87,7 +87,7 @@ void main() {
 #endif
 #if MCPT_FRESNEL_COMPLEX
     else if (u_mode == 8) {
-        o_out = uvec4(floatBitsToUint(fresnel_conductor(uintBitsToFloat(p.x), uintBitsToFloat(p.yzw), u_k)), 0u);
+        o_out = uvec4(floatBitsToUint(fresnel_conductor(uintBitsToFloat(p.x), vec3(uintBitsToFloat(p.y)), vec3(uintBitsToFloat(p.z)))), 0u);
     }
 #endif
 #if MCPT_TEXTURES
