@@ -287,3 +287,19 @@ def test_material_table_carries_the_fresnel_modes():
         f = for_world(load_world(_mat(text)))
         assert f.material_texels == texels and not f.fresnel_complex, text
     assert for_world(load_world(_mat("{two_sided: false}"))).one_sided
+
+
+def test_specular_reflectance_forms():
+    checker = ROOT / "scenes" / "models" / "checker-cube" / "checker.png"
+    assert _mat("{type: conductor, fresnel: none, specular_reflectance: 0.9}").materials["m"].specular_reflectance \
+        == (0.9, 0.9, 0.9)
+    assert "item 0: Input should be less than or equal to 1" in _err(
+        "{type: conductor, fresnel: none, specular_reflectance: [2, 1, 1]}")
+    assert "texture file not found" in _err("{type: conductor, fresnel: none, specular_reflectance: nope.png}")
+    # An image as the lobe scale: it takes the albedo slot, which the shader's texture lookup fills.
+    world = load_world(_mat(f"{{type: conductor, metal: Cu, specular_reflectance: {{file: {checker}, filter: nearest}}}}"))
+    mt = world.materials
+    i = mt.names.index("m")
+    assert mt.texture[i] == 0 and len(world.textures) == 1 and world.textures[0].filter == "nearest"
+    assert for_world(world).textures and world.uvs is not None
+    np.testing.assert_allclose(mt.albedo[i], world.textures[0].mean_linear())

@@ -5,7 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field, ValidationInfo, field_validator, model_validator
+from pydantic import (BeforeValidator, Field, TypeAdapter, ValidationError, ValidationInfo, field_validator,
+                      model_validator)
+from pydantic_core import PydanticCustomError
 
 from ..shading.metals import METALS
 from .diagnostics import _FieldError
@@ -37,9 +39,19 @@ def _texture_shorthand(value: Any) -> Any:
     return {"file": value} if isinstance(value, (str, Path)) else value
 
 
-def _colour_or_texture(value: Any) -> Any:
-    """``specular_reflectance``: a list is an RGB colour, a string or a mapping an image texture."""
-    return value if isinstance(value, (list, tuple)) else _texture_shorthand(value)
+def _colour_or_texture(value: Any, info: ValidationInfo) -> Any:
+    """``specular_reflectance``: a number is a grey, a list an RGB colour, a string or a mapping an
+    image texture. Validated here, so that an error speaks of the one form that was written."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = [value] * 3
+    try:
+        if isinstance(value, (list, tuple)):
+            return TypeAdapter(Albedo).validate_python(value, strict=True)
+        return TypeAdapter(ImageTexture).validate_python(_texture_shorthand(value), context=info.context)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = "".join(f"item {p}: " for p in err["loc"] if isinstance(p, int))
+        raise PydanticCustomError("colour_or_texture", "{msg}", {"msg": f"{where}{err['msg']}"}) from None
 
 
 _Positive = Annotated[float, Field(gt=0.0, le=100.0)]
@@ -126,9 +138,9 @@ class Material(_Model):
     """Conductor with ``fresnel: conductor``: extinction coefficient (RGB), with ``eta``."""
     metal: Literal[tuple(METALS)] | None = None  # type: ignore[valid-type]
     """Conductor: a measured metal (Au, Ag, Cu, Al, Cr) instead of ``eta`` and ``k``."""
-    specular_reflectance: Annotated[Albedo | ImageTexture | None, BeforeValidator(_colour_or_texture)] = None
-    """Conductor: linear RGB factor on the lobe, in [0, 1], or an image (``fresnel: none`` or
-    ``conductor`` only); None = 1 (or, without an ``albedo``, the MTL ``Kd`` / ``map_Kd``)."""
+    specular_reflectance: Albedo | ImageTexture | None = None
+    """Conductor: linear RGB factor on the lobe, in [0, 1] (a number: grey), or an image
+    (``fresnel: none`` or ``conductor`` only); None = 1."""
     two_sided: bool = True
     """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
@@ -136,6 +148,11 @@ class Material(_Model):
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
+
+    @field_validator("specular_reflectance", mode="before")
+    @classmethod
+    def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
+        return None if value is None else _colour_or_texture(value, info)
 
     @model_validator(mode="after")
     def _check_keys(self) -> Material:

@@ -4,9 +4,10 @@ of a conductor with ``fresnel: conductor``; the formula is in glsl/bsdf_conducto
 Sources of the spectral data (eta(lambda), k(lambda), relative to vacuum ~ air):
 
 * Au, Ag, Cu, Al: the tables pbrt-v4 ships (src/pbrt/util/spectrum.cpp, ``Au_eta`` ... ``Al_k``),
-  which are the same measurements Mitsuba distributes (data/ior/*.spd: Palik, "Handbook of Optical
-  Constants of Solids", 1985, via the luxpop.com database).
-* Cr: Mitsuba 0.6's data/ior/Cr.eta.spd / Cr.k.spd (luxpop.com: "Cr_llnl_cxro + Cr_palik").
+  the same values as Mitsuba's data/ior/<metal>.eta.spd / .k.spd, whose header names their
+  source: the luxpop.com optical-constants database.
+* Cr: Mitsuba 0.6's data/ior/Cr.eta.spd / Cr.k.spd (luxpop.com: "Cr_llnl_cxro + Cr_palik", i.e.
+  LLNL/CXRO and Palik, "Handbook of Optical Constants of Solids", 1985).
 
 Reduction to RGB (what a renderer in RGB mode does, e.g. Mitsuba 3's ``complex_ior_from_file`` in
 its RGB variants): each spectrum s(lambda) is weighted by the CIE 1931 2-degree colour-matching
