@@ -33,8 +33,12 @@ vec3 fresnel_conductor(float cos_i, vec3 eta, vec3 k) {
     precise float c = clamp(cos_i, 0.0, 1.0);
     precise float c2 = c * c, s2 = 1.0 - c2, s4 = s2 * s2;
     precise vec3 t1 = eta * eta - k * k - s2;
-    precise vec3 a2pb2 = sqrt(max(t1 * t1 + 4.0 * eta * eta * k * k, 0.0));
-    precise vec3 a = sqrt(max(0.5 * (a2pb2 + t1), 0.0));
+    precise vec3 ek2 = eta * eta * k * k;
+    precise vec3 a2pb2 = sqrt(t1 * t1 + 4.0 * ek2);
+    // a^2 = (a^2 + b^2 + t1) / 2 cancels where t1 < 0 (eta < sin, k small: near total internal
+    // reflection); there the equal 2 eta^2 k^2 / (a^2 + b^2 - t1) is exact in float32.
+    precise vec3 a2 = mix(2.0 * ek2 / max(a2pb2 - t1, 1e-30), 0.5 * (a2pb2 + t1), greaterThanEqual(t1, vec3(0.0)));
+    precise vec3 a = sqrt(a2);
     precise vec3 term1 = a2pb2 + c2, term2 = 2.0 * c * a;
     precise vec3 rs = (term1 - term2) / (term1 + term2);
     precise vec3 term3 = a2pb2 * c2 + s4, term4 = term2 * s2;

@@ -52,27 +52,34 @@ def _complex(metal=None, eta=None, k=None, **kw):
 
 
 def test_conductor_fresnel_matches_complex_arithmetic(gl):
-    """GLSL (real arithmetic, Moeller's form) against numpy FrComplex: 41 cosines x 300 indices."""
+    """GLSL (real arithmetic, Moeller's form) against numpy FrComplex: the presets and 300 indices at
+    41 cosines each (0 and 1 included), and 10^5 random (cos, eta, k), eta in [0.03, 6], k in
+    [0, 10]. Near total internal reflection (eta < sin, k ~ 0) the textbook form loses 1e-4 to
+    cancellation; the shader's rearrangement keeps the error at float32 rounding (measured < 5e-7)."""
     rng = np.random.default_rng(13)
     etas = np.concatenate([np.array([m[0] for m in METALS.values()]).reshape(-1),
                            rng.uniform(0.03, 6.0, 300 - 3 * len(METALS))])
     ks = np.concatenate([np.array([m[1] for m in METALS.values()]).reshape(-1),
                          rng.uniform(0.0, 10.0, 300 - 3 * len(METALS))])
     ks[-20:] = 0.0  # k = 0: a dielectric, below and above eta = 1 (total internal reflection)
+    ks[-40:-20] = rng.uniform(0.0, 1e-3, 20)  # almost a dielectric
     cos = np.concatenate([[0.0, 1e-4, 1.0], np.linspace(0.0, 1.0, 38)])
     C, I = np.meshgrid(cos, np.arange(300), indexing="ij")
-    C, I = C.ravel(), I.ravel()
-    items = np.stack([C, etas[I], ks[I]], 1).astype(np.float32)
+    grid = np.stack([C.ravel(), etas[I.ravel()], ks[I.ravel()]], 1)
+    rand = np.stack([rng.uniform(0, 1, 100_000), rng.uniform(0.03, 6.0, 100_000), rng.uniform(0, 10, 100_000)], 1)
+    items = np.concatenate([grid, rand]).astype(np.float32)
     out = floats(probe(gl, "fresnel_conductor", items)).astype(np.float64)
     assert (out[:, 0] == out[:, 1]).all() and (out[:, 0] == out[:, 2]).all()
     got = out[:, 0]
-    want = fr_complex(C.astype(np.float32), etas[I].astype(np.float32), ks[I].astype(np.float32))
+    want = fr_complex(items[:, 0], items[:, 1], items[:, 2])
     err = np.abs(got - want)
-    assert err.max() < 2e-5, (err.max(), C[err.argmax()], etas[I][err.argmax()], ks[I][err.argmax()])
-    assert np.all((got >= 0) & (got <= 1 + 1e-6))
+    assert err.max() < 2e-6, (err.max(), items[err.argmax()])
+    assert np.all((got >= 0) & (got <= 1))
     # k = 0, eta > 1 is a dielectric: the same as the host's dielectric Fresnel.
-    d = (ks[I] == 0) & (etas[I] > 1)
-    np.testing.assert_allclose(got[d], fresnel_dielectric(C[d], etas[I][d]), atol=2e-5)
+    c, e, k = items[:, 0].astype(np.float64), items[:, 1].astype(np.float64), items[:, 2]
+    d = (k == 0) & (e > 1)
+    assert d.sum() > 300
+    np.testing.assert_allclose(got[d], fresnel_dielectric(c[d], e[d]), atol=2e-6)
 
 
 def test_metal_presets_are_physical():
