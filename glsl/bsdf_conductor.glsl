@@ -1,13 +1,22 @@
 // Conductor: a perfect mirror for alpha = 0, else a GGX microfacet BRDF (bsdf_ggx.glsl)
 //   f = F(wi.h) D(h) G2(wo, wi) / (4 cos_o cos_i)
-// with Schlick's Fresnel approximation, F = F0 + (1 - F0)(1 - cos)^5, F0 = the albedo (the
-// reflectance at normal incidence). A white conductor (F0 = 1) has F = 1: its mirror reflects
-// everything, its rough version loses only what single-scattering GGX loses (masking).
+// with the material's Fresnel mode (flags bits 1-2, mcpt/shading/materials.py), each times the
+// lobe scale S (specular_reflectance):
+//   Schlick: F = S (F0 + (1 - F0)(1 - cos)^5), F0 = the albedo (reflectance at normal incidence);
+//   none:    F = S at every angle (Mitsuba's conductor with material "none": the reference mirror);
+//   complex: F = S Fr(cos; eta + i k), the exact conductor Fresnel (bsdf_fresnel.glsl).
+// A white conductor (F0 = 1 or mode none, S = 1) has F = 1: its mirror reflects everything, its
+// rough version loses only what single-scattering GGX loses (masking).
+#define FRESNEL_NONE 1u
+#define FRESNEL_COMPLEX 2u
 
-vec3 fresnel_schlick(vec3 f0, float c) {
-    float m = clamp(1.0 - c, 0.0, 1.0);
-    float m2 = m * m;
-    return f0 + (1.0 - f0) * (m2 * m2 * m);
+vec3 conductor_fresnel(Material m, float c) {
+    uint mode = (m.flags >> 1) & 3u;
+    if (mode == FRESNEL_NONE) return m.albedo;  // the albedo slot holds S (texturable)
+#if MCPT_FRESNEL_COMPLEX
+    if (mode == FRESNEL_COMPLEX) return m.albedo * fresnel_conductor(c, m.eta, m.k);
+#endif
+    return m.scale * fresnel_schlick(m.albedo, c);
 }
 
 vec3 conductor_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
@@ -21,7 +30,7 @@ vec3 conductor_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
         float lo = ggx_lambda(o, m.alpha), li = ggx_lambda(i, m.alpha);
         float d = ggx_D(h, m.alpha);
         pdf = d / (4.0 * o.z * (1.0 + lo));
-        return fresnel_schlick(m.albedo, dot(i, h)) * (d / (4.0 * o.z * (1.0 + lo + li)));
+        return conductor_fresnel(m, dot(i, h)) * (d / (4.0 * o.z * (1.0 + lo + li)));
     }
 #endif
     return vec3(0.0);  // a mirror has only a delta lobe
@@ -38,13 +47,13 @@ bool conductor_sample(Material m, vec3 n, vec3 wo, vec2 u, inout BsdfSample s) {
         if (i.z <= 0.0) return false;  // reflected below the surface: masked, no energy
         float lo = ggx_lambda(o, m.alpha), li = ggx_lambda(i, m.alpha);
         s.wi = normalize(i.x * t + i.y * b + i.z * n);
-        s.weight = fresnel_schlick(m.albedo, dot(o, h)) * ((1.0 + lo) / (1.0 + lo + li));  // F G2 / G1
+        s.weight = conductor_fresnel(m, dot(o, h)) * ((1.0 + lo) / (1.0 + lo + li));  // F G2 / G1
         s.pdf = ggx_pdf_reflect(o, h, m.alpha, lo);
         return true;
     }
 #endif
     s.wi = reflect(-wo, n);
-    s.weight = fresnel_schlick(m.albedo, dot(wo, n));
+    s.weight = conductor_fresnel(m, dot(wo, n));
     s.pdf = 0.0;
     s.delta = true;
     return true;

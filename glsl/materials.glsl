@@ -1,7 +1,8 @@
 // Material table and BSDF dispatch (host side: mcpt/shading/materials.py, which documents the layout).
 // MCPT_MAT_TEXELS RGBA32UI texels per material:
 //   0 (albedo.rgb, type)  1 (emission.rgb, light_pdf_area)              -- always
-//   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS == 4
+//   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS >= 4
+//   4 (k.rgb, 0)                       -- when MCPT_MAT_TEXELS == 5 (a complex-Fresnel conductor)
 // light_pdf_area = luminance(Le) / total emitted power: the density, per unit area, with which
 // next-event estimation picks a point on a triangle of this material (needed for MIS).
 //
@@ -15,6 +16,7 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 #define MAT_DIELECTRIC 2
 #define MAT_PLASTIC 3
 #define MAT_FLAG_SMOOTH 1u
+#define MAT_FLAG_ONE_SIDED 8u   // bits 1-2: the conductor's Fresnel mode (bsdf_conductor.glsl)
 
 struct Material {
     vec3 albedo; int type; vec3 emission; float light_pdf_area;
@@ -25,6 +27,11 @@ struct Material {
     uint flags;     // MAT_FLAG_SMOOTH: shade with interpolated vertex normals
     vec3 sigma_a;   // absorption per unit length inside a dielectric
     float fdr_int;  // plastic: diffuse Fresnel reflectance of the coat seen from inside
+    // Conductor, in sigma_a's texel: Schlick's lobe scale, or eta (the complex index's real part).
+    vec3 scale; vec3 eta;
+#endif
+#if MCPT_MAT_TEXELS > 4
+    vec3 k;         // conductor, complex Fresnel: the extinction coefficient
 #endif
 };
 
@@ -41,6 +48,10 @@ Material material(int id) {
     m.alpha = uintBitsToFloat(c.x); m.ior = uintBitsToFloat(c.y);
     m.texture = int(c.z); m.flags = c.w;
     m.sigma_a = uintBitsToFloat(d.xyz); m.fdr_int = uintBitsToFloat(d.w);
+    m.scale = m.sigma_a; m.eta = m.sigma_a;
+#endif
+#if MCPT_MAT_TEXELS > 4
+    m.k = uintBitsToFloat(texelFetch(u_materials, base + 4).xyz);
 #endif
     return m;
 }
@@ -63,11 +74,11 @@ struct BsdfSample {
 #if MCPT_MICROFACET
 #include "bsdf_ggx.glsl"
 #endif
+#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR
+#include "bsdf_fresnel.glsl"
+#endif
 #if MCPT_MAT_CONDUCTOR
 #include "bsdf_conductor.glsl"
-#endif
-#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC
-#include "bsdf_fresnel.glsl"
 #endif
 #if MCPT_MAT_DIELECTRIC
 #include "bsdf_dielectric.glsl"
@@ -75,6 +86,17 @@ struct BsdfSample {
 #if MCPT_MAT_PLASTIC
 #include "bsdf_plastic.glsl"
 #endif
+
+// A one-sided material (two_sided: false) seen from its back (the ray arrives at the geometric
+// back side) reflects nothing, as Mitsuba 3's BSDFs do outside a `twosided` wrapper. Glass is
+// two-sided by nature (the table never flags it).
+bool material_back_black(Material m, bool back) {
+#if MCPT_ONE_SIDED
+    return back && (m.flags & MAT_FLAG_ONE_SIDED) != 0u;
+#else
+    return false;
+#endif
+}
 
 // A surface that reflects nothing ends the path (e.g. the Cornell light, a pure emitter). Only a
 // black Lambertian qualifies: a black conductor still reflects at grazing angles (Schlick), a

@@ -86,6 +86,7 @@ vec3 radiance(Ray ray) {
             L += beta * m.emission * w;
         }
         if (k > MCPT_BOUNCES) return L;
+        if (material_back_black(m, cos_o > 0.0)) return L;  // one-sided, seen from behind
         vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
         vec3 ns = ng;
         vec3 wo = -ray.d;

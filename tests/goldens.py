@@ -75,6 +75,9 @@ GOLDENS: dict[str, GoldenSpec] = {
         GoldenSpec("bunny-metal", "scenes/bunny-metal.yaml", (32, 32), 4096, 2_000_004, 64, 18, 4,
                    clamp=1.0),
         GoldenSpec("spot", "scenes/spot.yaml", (32, 32), 4096, 2_000_005, 64, 19, 4),
+        # Issue #13: exact conductor Fresnel (gold, rough copper), the F = 1 reference mirror and
+        # a cube textured through its MTL; smooth metals make caustics: clamped like the above.
+        GoldenSpec("metals", "scenes/metals.yaml", (64, 64), 4096, 2_000_006, 64, 20, 4, clamp=1.0),
     )
 }
 

@@ -17,7 +17,7 @@ from mcpt.gpu.features import Features
 from mcpt.bench.probe import run_probe
 
 MODE = {"sample": 0, "weight": 1, "eval": 2, "light": 3, "bary": 4, "texture": 5, "normal": 6,
-        "eta2": 7}
+        "eta2": 7, "fresnel_conductor": 8}
 TYPE = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
 PROBE_FEATURES = Features(bounces=1).everything()
 
@@ -32,6 +32,9 @@ def probe(gl, mode: str, items: np.ndarray, *, tbos=None, **uniforms) -> np.ndar
     else:
         buf[:, : items.shape[1]] = items.astype(np.uint32)
     unis = {"u_mode": MODE[mode]}
+    # Conductor parameters a test does not name: Schlick with lobe scale 1 (today's conductor).
+    uniforms = {"flags": 0, "scale": (1.0, 1.0, 1.0), "eta": (1.0, 1.0, 1.0), "k": (0.0, 0.0, 0.0),
+                **uniforms}
     for k, v in uniforms.items():
         if k == "type":
             v = TYPE[v]

@@ -13,6 +13,7 @@ import pytest
 
 from mcpt.shading.lights import build_lights
 from mcpt.shading.materials import fdr_internal, fresnel_dielectric
+from mcpt.shading.metals import METALS
 
 from .test_materials_util import (cell_probabilities, chi2_test, floats, probe, sidak,
                                   sphere_grid, sphere_histogram, uniform_numbers)
@@ -28,6 +29,14 @@ BSDF_CASES = [
     ("ggx-0.3-45deg", dict(type="conductor", albedo=(1, 1, 1), alpha=0.3, wo=(0.7071068, 0.0, 0.7071068))),
     ("ggx-0.6-80deg", dict(type="conductor", albedo=(1, 1, 1), alpha=0.6, wo=(0.0, 0.9848078, 0.1736482))),
     ("ggx-1.0-30deg", dict(type="conductor", albedo=(1, 1, 1), alpha=1.0, wo=(0.5, 0.0, 0.8660254))),
+    # Conductor Fresnel modes (issue #13): the exact complex Fresnel (gold, copper) and F = 1
+    # (flags bits 1-2: mcpt/shading/materials.py FRESNEL), with a lobe scale.
+    ("ggx-0.3-45deg-Au", dict(type="conductor", albedo=(1, 1, 1), alpha=0.3, wo=(0.7071068, 0.0, 0.7071068),
+                              flags=4, eta=METALS["Au"][0], k=METALS["Au"][1])),
+    ("ggx-0.7-75deg-Cu", dict(type="conductor", albedo=(0.9, 0.8, 1.0), alpha=0.7, wo=(0.0, 0.9659258, 0.2588190),
+                              flags=4, eta=METALS["Cu"][0], k=METALS["Cu"][1])),
+    ("ggx-0.2-60deg-none", dict(type="conductor", albedo=(0.9, 0.9, 0.9), alpha=0.2, wo=(0.8660254, 0.0, 0.5),
+                                flags=2)),
     ("plastic-diffuse-lobe", dict(type="plastic", albedo=(0.6, 0.3, 0.2), ior=1.5, fdr_int=fdr_internal(1.5),
                                   wo=(0.6, 0.0, 0.8))),
 ]

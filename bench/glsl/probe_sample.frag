@@ -10,6 +10,7 @@
 //   mode 5  texture_rgb(p.z, uv = p.xy) -> (rgb, 0)
 //   mode 6  shading_normal_raw(tri = p.x, bary = p.yz), normalised -> (n.xyz, 0)
 //   mode 7  bsdf_sample(u = p.xy)      -> (eta2, 0, 0, 0)
+//   mode 8  fresnel_conductor(cos = p.x, eta = p.y, k = p.z; the same in each channel) -> (F.rgb, 0)
 #include "common.glsl"
 #include "materials.glsl"
 #if MCPT_NEE
@@ -31,6 +32,10 @@ uniform float u_alpha;
 uniform float u_ior;
 uniform float u_fdr_int;
 uniform vec3 u_wo;
+uniform int u_flags;    // material flags (Fresnel mode, one-sided): mcpt/shading/materials.py
+uniform vec3 u_scale;   // conductor: Schlick's lobe scale
+uniform vec3 u_eta;     // conductor: complex index (fresnel: conductor)
+uniform vec3 u_k;
 uniform int u_front;
 layout(location = 0) out uvec4 o_out;
 
@@ -38,8 +43,12 @@ Material probe_material() {
     Material m;
     m.albedo = u_albedo; m.type = u_type; m.emission = vec3(0.0); m.light_pdf_area = 0.0;
 #if MCPT_MAT_TEXELS > 2
-    m.alpha = u_alpha; m.ior = u_ior; m.texture = -1; m.flags = 0u;
+    m.alpha = u_alpha; m.ior = u_ior; m.texture = -1; m.flags = uint(u_flags);
     m.sigma_a = vec3(0.0); m.fdr_int = u_fdr_int;
+    m.scale = u_scale; m.eta = u_eta;
+#endif
+#if MCPT_MAT_TEXELS > 4
+    m.k = u_k;
 #endif
     return m;
 }
@@ -74,6 +83,11 @@ void main() {
         o_out = uvec4(uint(lt), floatBitsToUint(pmf), 0u, 0u);
     } else if (u_mode == 4) {
         o_out = uvec4(floatBitsToUint(sample_triangle_bary(uintBitsToFloat(p.xy))), 0u, 0u);
+    }
+#endif
+#if MCPT_FRESNEL_COMPLEX
+    else if (u_mode == 8) {
+        o_out = uvec4(floatBitsToUint(fresnel_conductor(uintBitsToFloat(p.x), vec3(uintBitsToFloat(p.y)), vec3(uintBitsToFloat(p.z)))), 0u);
     }
 #endif
 #if MCPT_TEXTURES

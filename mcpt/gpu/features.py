@@ -7,7 +7,9 @@ measure what specialisation gains.
 
 Materials: each type compiles its own ``glsl/bsdf_<type>.glsl`` only when the scene uses it; the
 GGX microfacet code only when some conductor is rough; texture and vertex-normal lookups (and
-their UV / normal buffers) only when some material has an ``albedo_texture`` / ``smooth_normals``.
+their UV / normal buffers) only when some material has an ``albedo_texture`` / ``smooth_normals``;
+the complex (exact conductor) Fresnel and its extra material texel only when some conductor uses
+``fresnel: conductor``; the back-side test only when some material is one-sided.
 
 Sampling modes (``sampling``), all unbiased and used by the tests to check one another:
 ``"mis"`` (default) light sampling and BSDF sampling combined by the power heuristic; ``"nee"``
@@ -68,6 +70,8 @@ class Features:
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
     textures: bool = False          # some albedo is an image: UV buffer, texel buffer
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
+    fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
+    one_sided: bool = False         # some material has two_sided: false (black back side)
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
@@ -95,8 +99,12 @@ class Features:
 
     @property
     def material_texels(self) -> int:
-        """Texels per material in the table: 2 for diffuse-only scenes, 4 with any parameter."""
-        extra = self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
+        """Texels per material in the table: 2 for diffuse-only scenes, 4 with any parameter, 5
+        with a complex-Fresnel conductor (its k)."""
+        if self.conductor and self.fresnel_complex:
+            return 5
+        extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
+                 or self.one_sided)
         return 4 if extra else 2
 
     @property
@@ -130,6 +138,8 @@ class Features:
             "MCPT_MAT_TEXELS": self.material_texels,
             "MCPT_TEXTURES": b(self.textures),
             "MCPT_SMOOTH_NORMALS": b(self.smooth_normals),
+            "MCPT_FRESNEL_COMPLEX": b(self.conductor and self.fresnel_complex),
+            "MCPT_ONE_SIDED": b(self.one_sided),
             "MCPT_CLAMP": b(self.clamp),
             "MCPT_VARIANCE": b(self.variance),
             "MCPT_LOOP_LIMIT": self.loop_limit,
@@ -142,19 +152,22 @@ class Features:
         """The uber-shader: every optional code path compiled in (bounces stay as given)."""
         return replace(self, lights=True, single_light=False, sampling="mis", russian_roulette=True,
                        bvh=True, diffuse=True, conductor=True, microfacet=True, dielectric=True,
-                       absorption=True, plastic=True, textures=True, smooth_normals=True)
+                       absorption=True, plastic=True, textures=True, smooth_normals=True,
+                       fresnel_complex=True, one_sided=True)
 
 
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
            rough: bool = False, absorption: bool = False, textures: bool = False,
-           smooth_normals: bool = False, sampling: str = "mis", russian_roulette: bool = True,
+           smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
+           sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False,
            loop_limit: int = 0) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
     roughness >= 0.001; ``absorption``: some dielectric absorbs; ``textures`` / ``smooth_normals``:
-    some used material has an albedo texture / smooth shading normals.
+    some used material has an albedo texture / smooth shading normals; ``fresnel_complex``: some
+    conductor has ``fresnel: conductor``; ``one_sided``: some material has ``two_sided: false``.
     """
     return Features(
         bounces=bounces,
@@ -171,6 +184,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         plastic="plastic" in material_types,
         textures=textures,
         smooth_normals=smooth_normals,
+        fresnel_complex="conductor" in material_types and fresnel_complex,
+        one_sided=one_sided,
         clamp=clamp,
         variance=variance,
         loop_limit=loop_limit,
@@ -185,4 +200,5 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         bounces=world.scene.render.bounces if bounces is None else bounces,
         n_triangles=world.n_triangles, n_emissive=world.lights.count, material_types=used,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
-        smooth_normals=mt.smooth_shaded(ids), **flags)
+        smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
+        one_sided=mt.one_sided_used(ids), **flags)

@@ -5,8 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BeforeValidator, Field, ValidationInfo, field_validator, model_validator
+from pydantic import (BeforeValidator, Field, TypeAdapter, ValidationError, ValidationInfo, field_validator,
+                      model_validator)
+from pydantic_core import PydanticCustomError
 
+from ..shading.metals import METALS
 from .diagnostics import _FieldError
 from .fields import Albedo, Radiance, _Model, _fixed_list, _texture_file
 
@@ -36,6 +39,29 @@ def _texture_shorthand(value: Any) -> Any:
     return {"file": value} if isinstance(value, (str, Path)) else value
 
 
+def _colour_or_texture(value: Any, info: ValidationInfo) -> Any:
+    """``specular_reflectance``: a number is a grey, a list an RGB colour, a string or a mapping an
+    image texture. Validated here, so that an error speaks of the one form that was written."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = [value] * 3
+    try:
+        if isinstance(value, (list, tuple)):
+            return TypeAdapter(Albedo).validate_python(value, strict=True)
+        return TypeAdapter(ImageTexture).validate_python(_texture_shorthand(value), context=info.context)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = "".join(f"item {p}: " for p in err["loc"] if isinstance(p, int))
+        raise PydanticCustomError("colour_or_texture", "{msg}", {"msg": f"{where}{err['msg']}"}) from None
+
+
+_Positive = Annotated[float, Field(gt=0.0, le=100.0)]
+_NonNegative = Annotated[float, Field(ge=0.0, le=100.0)]
+#: The real part of a complex index of refraction, per RGB channel (dimensionless, > 0).
+Eta = Annotated[tuple[_Positive, _Positive, _Positive], _fixed_list(3)]
+#: The extinction coefficient (imaginary part), per RGB channel (dimensionless, >= 0).
+Extinction = Annotated[tuple[_NonNegative, _NonNegative, _NonNegative], _fixed_list(3)]
+
+
 class Absorption(_Model):
     """Beer-Lambert absorption inside a dielectric: light that travels ``distance`` through the
     medium keeps the fraction ``color`` of itself (sigma_a = -ln(color) / distance)."""
@@ -55,20 +81,27 @@ class Absorption(_Model):
 
 #: Which optional keys each material type accepts (``emission`` and ``smooth_normals``: all).
 MATERIAL_KEYS = {
-    "diffuse": ("albedo", "albedo_texture"),
-    "conductor": ("albedo", "albedo_texture", "roughness"),
+    "diffuse": ("albedo", "albedo_texture", "two_sided"),
+    "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
+                  "specular_reflectance", "two_sided"),
     "dielectric": ("ior", "absorption"),
-    "plastic": ("albedo", "albedo_texture", "ior"),
+    "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
 }
+_OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
+             "metal", "specular_reflectance", "two_sided")
 
 
 class Material(_Model):
     """A surface material (GLSL: glsl/bsdf_<type>.glsl; table: mcpt/shading/materials.py).
 
     * ``diffuse``: Lambertian, reflectance ``albedo`` (or ``albedo_texture``).
-    * ``conductor``: metal; ``albedo`` is the reflectance at normal incidence, Schlick's Fresnel
-      approximation gives the rest. ``roughness`` is the GGX alpha: 0 (below 0.001) is a perfect
-      mirror, larger values a rough metal (Smith height-correlated masking, visible-normal sampling).
+    * ``conductor``: metal. ``roughness`` is the GGX alpha: 0 (below 0.001) is a perfect mirror,
+      larger values a rough metal (Smith height-correlated masking, visible-normal sampling). The
+      Fresnel factor (``fresnel``): ``schlick`` (default) with ``albedo`` the reflectance at normal
+      incidence; ``none``, F = 1 at every angle (Mitsuba's ``material: none``, the reference
+      mirror); ``conductor``, the exact unpolarised Fresnel of a complex index ``eta`` + i ``k``
+      (RGB) or of a measured ``metal`` (mcpt/shading/metals.py). ``specular_reflectance`` (RGB or
+      an image) scales the lobe in every mode (default 1).
     * ``dielectric``: smooth glass, exact unpolarised Fresnel, refraction by ``ior`` (outside is
       air, the front side is outside), total internal reflection, optional ``absorption``.
     * ``plastic``: a Lambertian base (``albedo``) under a smooth dielectric coat of index ``ior``:
@@ -76,7 +109,10 @@ class Material(_Model):
       the light the coat reflects back onto the base. A white plastic reflects all light.
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
-    interpolated from vertex normals (``smooth_normals``).
+    interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
+    ``two_sided`` (default true: both sides reflect alike, what Mitsuba 3's ``twosided`` wrapper
+    does); ``two_sided: false`` makes the back side black, as Mitsuba 3's bare BSDFs are. Glass has
+    two sides by nature.
     """
 
     type: Literal["diffuse", "conductor", "dielectric", "plastic"] = "diffuse"
@@ -92,16 +128,36 @@ class Material(_Model):
     """Dielectric, plastic: index of refraction (the outside is air, index 1)."""
     absorption: Absorption | None = None
     """Dielectric: Beer-Lambert absorption of light travelling inside (None: clear)."""
+    fresnel: Literal["schlick", "none", "conductor"] | None = None
+    """Conductor: the Fresnel factor, ``schlick`` (F0 = albedo), ``none`` (F = 1) or ``conductor``
+    (complex index ``eta``, ``k`` or ``metal``). Default: ``conductor`` when ``eta``/``k``/``metal``
+    is given, else ``schlick``."""
+    eta: Eta | None = None
+    """Conductor with ``fresnel: conductor``: real part of the complex index (RGB), relative to air."""
+    k: Extinction | None = None
+    """Conductor with ``fresnel: conductor``: extinction coefficient (RGB), with ``eta``."""
+    metal: Literal[tuple(METALS)] | None = None  # type: ignore[valid-type]
+    """Conductor: a measured metal (Au, Ag, Cu, Al, Cr) instead of ``eta`` and ``k``."""
+    specular_reflectance: Albedo | ImageTexture | None = None
+    """Conductor: linear RGB factor on the lobe, in [0, 1] (a number: grey), or an image
+    (``fresnel: none`` or ``conductor`` only); None = 1."""
+    two_sided: bool = True
+    """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
     """Emitted radiance (W sr^-1 m^-2, linear RGB, >= 0), front side only; None = MTL ``Ke``, else 0."""
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
 
+    @field_validator("specular_reflectance", mode="before")
+    @classmethod
+    def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
+        return None if value is None else _colour_or_texture(value, info)
+
     @model_validator(mode="after")
     def _check_keys(self) -> Material:
         allowed = MATERIAL_KEYS[self.type]
-        for key in ("albedo", "albedo_texture", "roughness", "ior", "absorption"):
+        for key in _OPTIONAL:
             if key in self.model_fields_set and key not in allowed:
                 users = [t for t, keys in MATERIAL_KEYS.items() if key in keys]
                 raise _FieldError(
@@ -109,5 +165,41 @@ class Material(_Model):
                 )
         if self.albedo is not None and self.albedo_texture is not None:
             raise _FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
+        if self.type == "conductor":
+            self._check_fresnel()
         return self
+
+    @property
+    def fresnel_mode(self) -> str:
+        """The conductor's Fresnel mode with the default resolved."""
+        if self.fresnel is not None:
+            return self.fresnel
+        return "conductor" if {"eta", "k", "metal"} & self.model_fields_set else "schlick"
+
+    def complex_ior(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """(eta, k) of a ``fresnel: conductor`` material."""
+        return METALS[self.metal] if self.metal is not None else (self.eta, self.k)
+
+    def _check_fresnel(self) -> None:
+        mode = self.fresnel_mode
+        given = self.model_fields_set
+        if mode == "conductor":
+            if self.metal is not None and (self.eta is not None or self.k is not None):
+                raise _FieldError(("metal",), "give metal or eta and k, not both")
+            if self.metal is None and (self.eta is None or self.k is None):
+                missing = "k" if self.eta is not None else "eta"
+                raise _FieldError((missing,), f"fresnel: conductor needs eta and k (RGB), or a metal "
+                                              f"({', '.join(METALS)})")
+        else:
+            for key in ("eta", "k", "metal"):
+                if key in given:
+                    raise _FieldError((key,), f"{key} is a parameter of fresnel: conductor, not {mode}")
+        if mode != "schlick":
+            for key in ("albedo", "albedo_texture"):
+                if key in given:
+                    raise _FieldError((key,), f"with fresnel: {mode} the conductor's colour is "
+                                              f"specular_reflectance, not {key} (Schlick's F0)")
+        elif isinstance(self.specular_reflectance, ImageTexture):
+            raise _FieldError(("specular_reflectance",), "with fresnel: schlick the texture is "
+                                                         "albedo_texture (F0); specular_reflectance is RGB")
 

@@ -2,16 +2,24 @@
 
 ``features.material_texels`` RGBA32UI texels per material (floats travel as bits):
 
-    0: albedo.rgb, type id          albedo: diffuse reflectance; conductor: Schlick F0
+    0: albedo.rgb, type id          albedo: the colour a texture replaces: diffuse / plastic
+                                    reflectance; conductor: Schlick's F0, or the lobe scale
+                                    (specular_reflectance) with fresnel none / conductor
     1: emission.rgb, light_pdf_area density with which NEE picks a point of this material
                                     per unit area (needed for MIS, mcpt/shading/lights.py)
     2: alpha, ior, texture, flags   GGX alpha (conductor), index of refraction (dielectric,
-                                    plastic), albedo texture id (0xffffffff: none), flags
+                                    plastic), albedo texture id (0xffffffff: none), flags:
+                                    bit 0 smooth normals, bits 1-2 conductor Fresnel mode
+                                    (0 Schlick, 1 none, 2 complex), bit 3 one-sided
     3: sigma_a.rgb, fdr_int         absorption coefficient per unit length (dielectric);
-                                    the coat's internal diffuse Fresnel reflectance (plastic)
+                                    conductor: Schlick's lobe scale (specular_reflectance), or
+                                    eta (complex Fresnel); the coat's internal diffuse
+                                    Fresnel reflectance (plastic)
+    4: k.rgb, 0                     conductor with complex Fresnel: the extinction coefficient
 
 Texels 2 and 3 exist only when the scene needs one of their values (the data diet): a
-diffuse-only scene without textures or smooth normals uploads 2 texels per material.
+diffuse-only scene without textures, smooth normals or one-sided materials uploads 2 texels per
+material; texel 4 only when some conductor uses the complex Fresnel.
 """
 
 from __future__ import annotations
@@ -24,6 +32,9 @@ import numpy as np
 TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
 
 FLAG_SMOOTH_NORMALS = 1
+FRESNEL = {"schlick": 0, "none": 1, "conductor": 2}
+FRESNEL_SHIFT = 1             # flags bits 1-2: the conductor's Fresnel mode
+FLAG_ONE_SIDED = 8            # the back side is black
 NO_TEXTURE = 0xFFFFFFFF
 
 #: GGX alpha below which a conductor is a perfect mirror (pbrt-v4's EffectivelySmooth): the
@@ -74,11 +85,18 @@ class MaterialTable:
     texture: np.ndarray = None  # (M,) albedo texture id, -1: none
     smooth: np.ndarray = None   # (M,) bool: shade with vertex normals
     sigma_a: np.ndarray = None  # (M, 3) absorption per unit length (dielectric)
+    fresnel: tuple = None       # (M,) conductor Fresnel mode: "schlick", "none", "conductor"
+    spec: np.ndarray = None     # (M, 3) conductor lobe scale under Schlick (specular_reflectance)
+    eta: np.ndarray = None      # (M, 3) conductor complex index, real part (fresnel: conductor)
+    k: np.ndarray = None        # (M, 3) conductor complex index, imaginary part
+    one_sided: np.ndarray = None  # (M,) bool: the back side is black
 
     def __post_init__(self):
         m = len(self.names)
         defaults = {"alpha": np.zeros(m), "ior": np.full(m, 1.5), "texture": np.full(m, -1, np.int64),
-                    "smooth": np.zeros(m, bool), "sigma_a": np.zeros((m, 3))}
+                    "smooth": np.zeros(m, bool), "sigma_a": np.zeros((m, 3)),
+                    "fresnel": ("schlick",) * m, "spec": np.ones((m, 3)), "eta": np.ones((m, 3)),
+                    "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool)}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -98,6 +116,12 @@ class MaterialTable:
     def smooth_shaded(self, ids) -> bool:
         return any(bool(self.smooth[i]) for i in self.used(ids))
 
+    def complex_fresnel(self, ids) -> bool:
+        return any(self.types[i] == "conductor" and self.fresnel[i] == "conductor" for i in self.used(ids))
+
+    def one_sided_used(self, ids) -> bool:
+        return any(bool(self.one_sided[i]) and self.types[i] != "dielectric" for i in self.used(ids))
+
     def pack(self, light_pdf_area: np.ndarray, texels: int = 2) -> np.ndarray:
         m = len(self.names)
         out = np.zeros((max(m, 1), texels, 4), np.uint32)
@@ -111,8 +135,17 @@ class MaterialTable:
             out[:m, 2, 0] = f32(alpha)
             out[:m, 2, 1] = f32(self.ior)
             out[:m, 2, 2] = np.where(self.texture >= 0, self.texture, NO_TEXTURE).astype(np.uint32)
-            out[:m, 2, 3] = np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0).astype(np.uint32)
-            out[:m, 3, :3] = f32(self.sigma_a)
+            conductor = np.array([t == "conductor" for t in self.types], bool)
+            mode = np.array([FRESNEL[f] if c else 0 for f, c in zip(self.fresnel, conductor)], np.uint32)
+            one = self.one_sided & np.array([t != "dielectric" for t in self.types], bool)
+            out[:m, 2, 3] = (np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0) | (mode << FRESNEL_SHIFT)
+                             | np.where(one, FLAG_ONE_SIDED, 0)).astype(np.uint32)
+            # Texel 3 rgb per type: sigma_a (dielectric), Schlick's lobe scale or eta (conductor).
+            third = np.where(conductor[:, None], np.where((mode == FRESNEL["conductor"])[:, None],
+                                                          self.eta, self.spec), self.sigma_a)
+            out[:m, 3, :3] = f32(third)
             fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
             out[:m, 3, 3] = f32(fdr)
+        if texels >= 5:
+            out[:m, 4, :3] = f32(self.k)
         return out.reshape(-1, 4)

@@ -113,35 +113,93 @@ def restore_precision(path: Path, parts: list) -> None:
 _MTLLIB = re.compile(rb"^[ \t]*mtllib[ \t]+(.+?)[ \t]*\r?$", re.MULTILINE)
 
 
-def mtl_declarations(obj_path: Path) -> dict[str, set[str]]:
-    """Map material name -> lower-cased MTL keywords it declares, for the OBJ's mtllib files.
+def _mtl_files(obj_path: Path) -> list[Path]:
+    """The MTL files an OBJ names in its ``mtllib`` lines (existing or not), in order.
 
-    A regex over the raw bytes finds `mtllib` lines without splitting a 40 MB OBJ into lines.
-    Missing or unreadable MTL files are simply absent (Assimp then uses its default material).
-    """
-    declared: dict[str, set[str]] = {}
+    A regex over the raw bytes finds `mtllib` lines without splitting a 40 MB OBJ into lines."""
     try:
         data = obj_path.read_bytes()
     except OSError:
-        return declared
+        return []
+    files = []
     for match in _MTLLIB.finditer(data):
         spec = match.group(1).decode("utf-8", "replace")
         # The spec allows several files per line; a single name with spaces is also common.
         candidates = [spec] if (obj_path.parent / spec).is_file() else spec.split()
-        for name in candidates:
-            mtl = obj_path.parent / name
-            try:
-                text = mtl.read_text(encoding="utf-8", errors="replace")
-            except OSError:
+        files += [obj_path.parent / name for name in candidates]
+    return files
+
+
+def _mtl_statements(obj_path: Path):
+    """(mtl file, material name, lower-cased keyword, rest of the line) for every statement inside
+    a ``newmtl`` block of the OBJ's MTL files. Missing or unreadable MTL files are skipped
+    (Assimp then uses its default material)."""
+    for mtl in _mtl_files(obj_path):
+        try:
+            text = mtl.read_text(encoding="utf-8", errors="replace")
+        except OSError:
+            continue
+        current: str | None = None
+        for line in text.splitlines():
+            fields = line.split(None, 1)
+            if not fields or fields[0].startswith("#"):
                 continue
-            current: set[str] | None = None
-            for line in text.splitlines():
-                fields = line.split(None, 1)
-                if not fields:
-                    continue
-                key = fields[0].lower()
-                if key == "newmtl":
-                    current = declared.setdefault(fields[1].strip() if len(fields) > 1 else "", set())
-                elif current is not None:
-                    current.add(key)
+            key = fields[0].lower()
+            rest = fields[1].strip() if len(fields) > 1 else ""
+            if key == "newmtl":
+                current = rest
+            elif current is not None:
+                yield mtl, current, key, rest
+
+
+def mtl_declarations(obj_path: Path) -> dict[str, set[str]]:
+    """Map material name -> lower-cased MTL keywords it declares, for the OBJ's mtllib files."""
+    declared: dict[str, set[str]] = {}
+    for _, name, key, _ in _mtl_statements(obj_path):
+        declared.setdefault(name, set()).add(key)
     return declared
+
+
+#: Options of MTL texture statements (``map_Kd -s 1 1 1 file.png``) and how many values each takes
+#: (Wavefront MTL specification); ``-o``, ``-s``, ``-t`` take 1 to 3 numbers.
+_MAP_OPTIONS = {"-blendu": 1, "-blendv": 1, "-bm": 1, "-boost": 1, "-cc": 1, "-clamp": 1,
+                "-imfchan": 1, "-mm": 2, "-o": 3, "-s": 3, "-t": 3, "-texres": 1, "-type": 1}
+
+
+def _map_file(rest: str) -> str:
+    """The file name of a texture statement, its options skipped (a name may contain spaces)."""
+    tokens = rest.split()
+    i = 0
+    while i < len(tokens) and tokens[i].lower() in _MAP_OPTIONS:
+        n = _MAP_OPTIONS[tokens[i].lower()]
+        i += 1
+        if n == 3:  # up to three numbers
+            while n and i < len(tokens) - 1 and _is_number(tokens[i]):
+                i, n = i + 1, n - 1
+        else:
+            i += n
+    return " ".join(tokens[i:])
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+#: MTL texture statements mcpt reads: the diffuse colour and the emitted radiance.
+MTL_MAPS = ("map_kd", "map_ke")
+
+
+def mtl_textures(obj_path: Path) -> dict[str, dict[str, tuple[Path, Path]]]:
+    """Map material name -> {"map_kd" / "map_ke": (mtl file, texture path)}; texture paths are
+    relative to the MTL file's folder (as the format says), backslashes read as slashes."""
+    maps: dict[str, dict[str, tuple[Path, Path]]] = {}
+    for mtl, name, key, rest in _mtl_statements(obj_path):
+        if key in MTL_MAPS:
+            file = _map_file(rest).replace("\\", "/")
+            if file:
+                maps.setdefault(name, {})[key] = (mtl, (mtl.parent / file))
+    return maps

@@ -1,7 +1,8 @@
 """Building the world: the only road from a scene description to render-ready geometry.
 
 ``load_world(scene)`` reads every mesh (mcpt/shapes/mesh.py), resolves materials (YAML first, the OBJ's
-MTL ``Kd``/``Ke`` where the YAML is silent), rebases the geometry relative to the camera in float64
+MTL ``Kd`` / ``map_Kd`` / ``Ke`` / ``map_Ke`` where the YAML is silent; texture paths relative to the
+MTL file), rebases the geometry relative to the camera in float64
 before rounding to float32 (so a scene far from the origin keeps its precision near the camera),
 builds the BVH (mcpt/shapes/bvh.py), reorders triangles into leaf order and derives the light
 table. Nothing here touches GL: mcpt/gpu/pack.py packs what the features need.
@@ -24,7 +25,7 @@ from ..scene import Scene
 from ..shading.lights import Lights, build_lights
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
-from . import geometry
+from . import geometry, obj
 from .bvh import BVH, build_bvh
 from .mesh import MeshError, first_of_duplicates, load_mesh
 
@@ -63,30 +64,76 @@ def _first_of_duplicate_triangles(tris32: np.ndarray) -> np.ndarray:
     return first_of_duplicates(ids.reshape(-1, 3))
 
 
+class _TextureRef:
+    """Where a texture comes from: a YAML ImageTexture or an MTL ``map_Kd`` / ``map_Ke``."""
+
+    def __init__(self, file, wrap: str = "repeat", filter: str = "bilinear"):
+        self.file, self.wrap, self.filter = file, wrap, filter
+
+
+def _albedo_from_mtl(ym) -> bool:
+    """Whether the MTL's Kd / map_Kd gives this YAML material its albedo (it is silent on it)."""
+    if ym is None:
+        return True
+    if ym.albedo is not None or ym.albedo_texture is not None or ym.type == "dielectric":
+        return False
+    return ym.type != "conductor" or ym.fresnel_mode == "schlick"
+
+
+def _conductor_columns(ym) -> dict:
+    """The conductor's Fresnel columns of the material table (mcpt/shading/materials.py)."""
+    cols = {"fresnel": "schlick", "spec": (1.0, 1.0, 1.0), "eta": (1.0, 1.0, 1.0), "k": (0.0, 0.0, 0.0)}
+    if ym is None or ym.type != "conductor":
+        return cols
+    cols["fresnel"] = ym.fresnel_mode
+    rgb = ym.specular_reflectance if isinstance(ym.specular_reflectance, tuple) else None
+    if cols["fresnel"] == "schlick" and rgb is not None:
+        cols["spec"] = rgb
+    if cols["fresnel"] == "conductor":
+        cols["eta"], cols["k"] = ym.complex_ior()
+    return cols
+
+
+def _mtl_emission(mi, spec, mm, ke, ref):
+    """MTL emission: ``Ke``, times the mean of ``map_Ke`` when there is one (Ke 1 if undeclared).
+    Emission textures are not supported: the texture's mean keeps the emitted power, and a
+    warning says so."""
+    if ref is None:
+        return ke
+    mean = load_texture(ref.file).mean_linear()
+    base = np.asarray(ke if mm.ke is not None else (1.0, 1.0, 1.0), np.float64)
+    out = tuple(float(x) for x in base * mean)
+    log.warning("%s: material %r: map_Ke %s: emission textures are not supported; it emits the "
+                "texture's mean %s uniformly", spec.file, mm.name, ref.file,
+                "(" + ", ".join(f"{x:.3g}" for x in out) + ")")
+    return out
+
+
 def load_world(scene: Scene) -> World:
     t0 = time.perf_counter()
     origin = np.asarray(scene.camera.position, np.float64)
     cols: dict[str, list] = {k: [] for k in ("names", "types", "albedo", "emission", "alpha", "ior",
-                                             "texture", "smooth", "sigma_a")}
+                                             "texture", "smooth", "sigma_a", "fresnel", "spec", "eta",
+                                             "k", "one_sided")}
     index: dict = {}
     textures: list[Texture] = []
     texture_index: dict = {}
 
-    def texture_id(spec, material: str) -> int:
+    def texture_id(spec, where: str) -> int:
         key = (str(spec.file), spec.wrap, spec.filter)
         if key not in texture_index:
             try:
                 texture = load_texture(spec.file, spec.wrap, spec.filter)
             except TextureError as exc:  # name the scene line and key, not only the image
-                raise TextureError(f"{scene.where('materials', material, 'albedo_texture')}: {exc}") from None
+                raise TextureError(f"{where}: {exc}") from None
             texture_index[key] = len(textures)
             textures.append(texture)
         return texture_index[key]
 
-    def material_id(key, name, mtype, kd, ke, ym=None):
+    def material_id(key, name, mtype, kd, ke, ym=None, tex_ref=None, tex_where=""):
         if key not in index:
             index[key] = len(cols["names"])
-            tex = texture_id(ym.albedo_texture, name) if ym is not None and ym.albedo_texture else -1
+            tex = texture_id(tex_ref, tex_where) if tex_ref is not None else -1
             if tex >= 0:
                 kd = tuple(textures[tex].mean_linear())  # informative only: the shader reads texels
             sigma = (0.0, 0.0, 0.0)
@@ -96,16 +143,35 @@ def load_world(scene: Scene) -> World:
             for k, v in (("names", name), ("types", mtype), ("albedo", kd), ("emission", ke),
                          ("alpha", ym.roughness if ym else 0.0), ("ior", ym.ior if ym else 1.5),
                          ("texture", tex), ("smooth", bool(ym.smooth_normals) if ym else False),
-                         ("sigma_a", sigma)):
+                         ("sigma_a", sigma), ("one_sided", bool(ym is not None and not ym.two_sided)),
+                         *_conductor_columns(ym).items()):
                 cols[k].append(v)
         return index[key]
+
+    def mtl_texture(mi, spec, mm_name, maps, key):
+        """The MTL texture ``key`` (map_kd / map_ke) of material ``mm_name``; one line if missing."""
+        if mm_name not in maps or key not in maps[mm_name]:
+            return None
+        mtl, file = maps[mm_name][key]
+        if not file.is_file():
+            raise TextureError(f"{scene.where('meshes', mi, 'file')}: {spec.file}: material {mm_name!r} "
+                               f"of {mtl}: {key[:4]}{key[4:].capitalize()} texture not found: {file}")
+        return _TextureRef(file)
 
     verts, mats, normals, uvs = [], [], [], []
     dropped = dropped_dup = 0
     for mi, spec in enumerate(scene.meshes):
         ym = scene.materials[spec.material] if spec.material is not None else None
+        is_obj = spec.file.suffix.lower() == ".obj"
+        maps = obj.mtl_textures(spec.file) if is_obj else {}
         need_normals = bool(ym is not None and ym.smooth_normals)
-        need_uvs = bool(ym is not None and ym.albedo_texture is not None)
+        yaml_tex = None
+        if ym is not None and ym.albedo_texture is not None:
+            yaml_tex = (ym.albedo_texture, scene.where('materials', spec.material, 'albedo_texture'))
+        elif ym is not None and ym.type == "conductor" and not isinstance(ym.specular_reflectance, (tuple, type(None))):
+            yaml_tex = (ym.specular_reflectance, scene.where('materials', spec.material, 'specular_reflectance'))
+        mtl_albedo = _albedo_from_mtl(ym)
+        need_uvs = yaml_tex is not None or (mtl_albedo and any("map_kd" in m for m in maps.values()))
         try:
             mesh = load_mesh(spec.file, spec.transform.matrix(), need_normals=need_normals,
                              need_uvs=need_uvs)
@@ -117,17 +183,26 @@ def load_world(scene: Scene) -> World:
         for k, mm in enumerate(mesh.materials):
             mtl_kd = tuple(mm.kd) if mm.kd is not None else DEFAULT_ALBEDO
             mtl_ke = tuple(mm.ke) if mm.ke is not None else (0.0, 0.0, 0.0)
+            map_kd = mtl_texture(mi, spec, mm.name, maps, "map_kd") if mtl_albedo else None
+            if ym is None or ym.emission is None:
+                mtl_ke = _mtl_emission(mi, spec, mm, mtl_ke, mtl_texture(mi, spec, mm.name, maps, "map_ke"))
+            tex_ref, tex_where = yaml_tex if yaml_tex is not None else (map_kd, f"{scene.where('meshes', mi, 'file')}: {spec.file}: material {mm.name!r}")
+            tex_key = str(tex_ref.file) if tex_ref is not None else None
             if ym is not None:
-                has_albedo = ym.albedo is not None or ym.albedo_texture is not None or ym.type == "dielectric"
                 kd = tuple(ym.albedo) if ym.albedo is not None else mtl_kd
                 if ym.type == "dielectric":
                     kd = (1.0, 1.0, 1.0)  # unused: glass has no albedo
+                elif ym.type == "conductor" and ym.fresnel_mode != "schlick":
+                    # The albedo slot holds the lobe scale (specular_reflectance, texturable).
+                    rgb = ym.specular_reflectance
+                    kd = tuple(rgb) if isinstance(rgb, tuple) else (1.0, 1.0, 1.0)
                 ke = tuple(ym.emission) if ym.emission is not None else mtl_ke
-                full = has_albedo and ym.emission is not None
-                key = (spec.material,) if full else (spec.material, mtl_kd, mtl_ke)
-                ids[k] = material_id(key, spec.material, ym.type, kd, ke, ym)
+                full = not mtl_albedo and ym.emission is not None
+                key = (spec.material,) if full else (spec.material, mtl_kd, mtl_ke, tex_key)
+                ids[k] = material_id(key, spec.material, ym.type, kd, ke, ym, tex_ref, tex_where)
             else:
-                ids[k] = material_id(("mtl", str(spec.file), mm.name), mm.name, "diffuse", mtl_kd, mtl_ke)
+                ids[k] = material_id(("mtl", str(spec.file), mm.name), mm.name, "diffuse", mtl_kd, mtl_ke,
+                                     None, tex_ref, tex_where)
         # Rebase in float64 before the float32 rounding (issue #6: far-from-origin scenes).
         verts.append((mesh.vertices - origin)[mesh.faces])
         mats.append(ids[mesh.face_material])
@@ -165,7 +240,12 @@ def load_world(scene: Scene) -> World:
                           alpha=np.asarray(cols["alpha"], np.float64), ior=np.asarray(cols["ior"], np.float64),
                           texture=np.asarray(cols["texture"], np.int64),
                           smooth=np.asarray(cols["smooth"], bool),
-                          sigma_a=np.asarray(cols["sigma_a"], np.float64).reshape(-1, 3))
+                          sigma_a=np.asarray(cols["sigma_a"], np.float64).reshape(-1, 3),
+                          fresnel=tuple(cols["fresnel"]),
+                          spec=np.asarray(cols["spec"], np.float64).reshape(-1, 3),
+                          eta=np.asarray(cols["eta"], np.float64).reshape(-1, 3),
+                          k=np.asarray(cols["k"], np.float64).reshape(-1, 3),
+                          one_sided=np.asarray(cols["one_sided"], bool))
     lights = build_lights(geometry.areas(tris32), table.emission[tri_mat])
     if lights.count == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
