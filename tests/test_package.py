@@ -22,8 +22,13 @@ def test_wheel_is_one_namespace_and_runs_outside_the_source_tree(tmp_path):
     on_disk = {p.name for p in (ROOT / "glsl").iterdir() if p.suffix in (".glsl", ".frag", ".vert")}
     assert on_disk and on_disk <= shipped
     for name in ("mcpt/cli/main.py", "mcpt/bench/suite.py", "mcpt/bench/glsl/probe_tbo.frag",
-                 "mcpt/scenes/cornell-box.yaml", "mcpt/scenes/cornell/light.obj"):
+                 "mcpt/scenes/cornell-box.yaml", "mcpt/scenes/cornell/light.obj",
+                 "mcpt/scenes/metals.yaml", "mcpt/scenes/models/checker-cube/cube.mtl"):
         assert name in names
+    # Every shipped scene file (scenes, meshes, MTLs, textures) is in the wheel.
+    scene_files = {"mcpt/scenes/" + str(f.relative_to(ROOT / "scenes")) for f in (ROOT / "scenes").rglob("*")
+                   if f.is_file() and "__pycache__" not in f.parts}
+    assert scene_files <= set(names), sorted(scene_files - set(names))
     # No verification machinery in the library itself.
     assert not [n for n in names if n.startswith("mcpt/") and not n.startswith(("mcpt/bench/", "mcpt/cli/"))
                 and any(w in n for w in ("golden", "stabil", "probe"))]
