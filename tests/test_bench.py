@@ -252,3 +252,26 @@ def test_peer_sweep_without_mitsuba_runs_mcpt_and_says_so(gl, tmp_path, monkeypa
     assert ser["relmse"][2] < ser["relmse"][0] / 4                    # 16x the samples
     assert (tmp_path / "PEER.md").read_text().count("Mitsuba 3 not available") == 1
     assert plots.plot_peer(res, tmp_path)[0].stat().st_size > 0
+
+
+def test_mcpt_sampler_is_passed_where_the_api_takes_it(monkeypatch):
+    """Before mcpt has a sampler choice: ('independent',), passed nowhere. Once ``prepare`` takes
+    ``sampler=`` and a SAMPLERS tuple names them, every name is offered and goes to prepare."""
+    import mcpt.api
+    import mcpt.features
+
+    def prepare(scene, *, sampler=None, **kw):  # the signature is all that is looked at
+        raise AssertionError
+
+    monkeypatch.setattr(mcpt.api, "prepare", prepare)
+    monkeypatch.setattr(mcpt.features, "SAMPLERS", ("sobol", "independent"), raising=False)
+    assert peer_run.mcpt_sampler_api() == (("sobol", "independent"), "prepare")
+    monkeypatch.delattr(mcpt.features, "SAMPLERS")
+    monkeypatch.delattr(mcpt.api, "prepare")
+
+    def plain(scene, *, spp=None, **kw):
+        raise AssertionError
+
+    monkeypatch.setattr(mcpt.api, "prepare", plain, raising=False)
+    names, where = peer_run.mcpt_sampler_api()
+    assert "independent" in names and (where is None) == (names == ("independent",))
