@@ -46,6 +46,9 @@ bench: setup
 # (MCPT_PEER_PYTHON). llvm_ad_rgb needs libLLVM >= 17 (drjit 1.5 emits llvm.minimum, which Debian's
 # default libLLVM 15 cannot lower); ../shared/tools/peer_mitsuba.py finds the library by itself.
 # If the Mitsuba side cannot be installed, `make peer` still runs mcpt's side and says so.
+# Quick (default): 128x128, 8 bounces, 4/16/64/256 spp, 2 rounds, both scenes (~5 min on 2 cores);
+# PEER_MODE=--full: 256x256 (the issue's size), 2 rounds (~4x longer).
+PEER_MODE ?= --quick
 PEER_VENV := .venv-peer
 PEER_PY := $(PEER_VENV)/bin/python
 PEER_STAMP := $(PEER_VENV)/.installed
@@ -69,7 +72,7 @@ peer-setup: peer-system-deps $(PEER_STAMP)
 peer: setup
 	@$(MAKE) --no-print-directory peer-setup \
 	  || echo "peer-setup failed: the Mitsuba side will be skipped"
-	MCPT_PEER_PYTHON=$${MCPT_PEER_PYTHON:-$(abspath $(PEER_PY))} $(PY) bench/run.py --only peer -o $(PEER_OUT)
+	MCPT_PEER_PYTHON=$${MCPT_PEER_PYTHON:-$(abspath $(PEER_PY))} $(PY) bench/run.py $(PEER_MODE) --only peer -o $(PEER_OUT)
 
 # Issue #6: the stability suite as a table (case, expected, measured, pass/fail); the same cases
 # run in CI as tests/test_stability.py. GL_BACKEND=osmesa to run it on OSMesa.

@@ -275,3 +275,22 @@ def test_mcpt_sampler_is_passed_where_the_api_takes_it(monkeypatch):
     monkeypatch.setattr(mcpt.api, "prepare", plain, raising=False)
     names, where = peer_run.mcpt_sampler_api()
     assert "independent" in names and (where is None) == (names == ("independent",))
+
+
+def test_peer_sweep_with_a_broken_mitsuba_says_so_once(gl, tmp_path, monkeypatch):
+    """A Mitsuba that imports but cannot render (llvm_ad_rgb on libLLVM 15 aborts): one line, no
+    Mitsuba records, mcpt's side still measured."""
+    shared_path("scenes-ref", "cornell", "reference.exr")
+    fake = tmp_path / "fake-python"
+    fake.write_text('#!/bin/sh\ncase "$1" in -c) echo 3.9.1;; '
+                    '*) echo "LLVM ERROR: Cannot select: fminimum" >&2; exit 134;; esac\n')
+    fake.chmod(0o755)
+    monkeypatch.setenv("MCPT_PEER_PYTHON", str(fake))
+    lines = []
+    pc = peer_run.peer_config(True, resolution=32, spp=(1, 4), rounds=1)
+    res = peer_run.peer_sweep(_tiny(tmp_path), lines.append, pc)
+    bad = [ln for ln in lines if "Mitsuba" in ln and "skipping its side" in ln]
+    assert len(bad) == 1 and "Cannot select" in bad[0]
+    assert {r["renderer"] for r in res["records"]} == {"mcpt"}
+    assert {r["scene"] for r in res["records"]} == {"cornell", "cornell-sphere-100k"}
+    assert res["summary"]["mitsuba"]["available"] is False
