@@ -169,6 +169,8 @@ class _Mitsuba:
 
 def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
     """``mcpt bench --only peer``: see the module docstring. Returns {settings, records, summary}."""
+    from mcpt.image import read_exr
+
     pc = pcfg or peer_config(cfg.quick)
     res = pc.resolution
     out = Path(cfg.out)
@@ -184,16 +186,17 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
     setups: dict = {}
     sides: dict = {}
     refs: dict = {}
+    bounces: dict = {}
     for name in pc.scenes:
         d = ref_scene_dir(name)
         if not (d / "reference.exr").exists():
             log(f"peer: {d} has no reference.exr: skipping scene {name}")
             continue
-        from mcpt.image import read_exr
-
         refs[name] = common.downsample(np.asarray(read_exr(d / "reference.exr")[0], np.float32)[..., :3],
                                        res, res)
-        path = scenes.write(ref_scene_yaml(d), Path(cfg.scene_dir), f"peer-{name}")
+        yml = ref_scene_yaml(d)
+        bounces[name] = yml["render"]["bounces"]
+        path = scenes.write(yml, Path(cfg.scene_dir), f"peer-{name}")
         mc = []
         for s in wanted:
             try:
@@ -226,8 +229,17 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
             seed = cfg.seed + rnd
             for name, ss in sides.items():
                 for spp in pc.spp:
-                    for side in ss:
-                        img, m = side.run(spp, seed, work)
+                    for side in list(ss):
+                        if side not in ss:  # dropped by a failure just now
+                            continue
+                        try:
+                            img, m = side.run(spp, seed, work)
+                        except mitsuba.MitsubaError as exc:  # keep what was measured; say so once
+                            mi_note = f"Mitsuba 3 failed mid-run ({exc}): its side stops here"
+                            log(mi_note)
+                            for other in sides.values():
+                                other[:] = [x for x in other if x.renderer != "mitsuba"]
+                            continue
                         e = common.errors(img, refs[name])
                         spp_a = m["spp_actual"]
                         rec = {"scene": name, "renderer": side.renderer, "sampler": side.sampler,
@@ -253,7 +265,8 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
     for line in summary_lines(summary):
         log(line)
     settings = {"scenes": list(refs), "resolution": [res, res], "spp": list(pc.spp),
-                "rounds": pc.rounds, "bounces": 8, "seed": cfg.seed,
+                "rounds": pc.rounds, "bounces": max(bounces.values()), "seed": cfg.seed,
+                "bounces_by_scene": bounces,
                 "mcpt_samplers": [s for s in wanted], "mitsuba_samplers": list(pc.mitsuba_samplers),
                 "mitsuba_variant": pc.variant, "thresholds": list(pc.thresholds),
                 "order": "per (round, scene, spp): mcpt s1, Mitsuba s1, mcpt s2, Mitsuba s2, ...",
