@@ -6,7 +6,8 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 SCENE ?= scenes/cornell-box.yaml
 
-.PHONY: all setup system-deps render test test-osmesa bench stability goldens wheel clean
+.PHONY: all setup system-deps render test test-osmesa bench stability goldens wheel clean \
+        peer peer-setup peer-system-deps
 
 all: test
 
@@ -41,6 +42,39 @@ test-osmesa: setup
 bench: setup
 	$(PY) -m mcpt.bench.run --quick
 	$(PY) -m mcpt.bench.figures --bench out/bench --out bench/figures
+
+# Issue #14: mcpt and Mitsuba 3 side by side (bench/peer.py). Mitsuba lives in its own venv,
+# OUTSIDE the package (.venv-peer, ignored by git), and runs as a subprocess with that venv's python
+# (MCPT_PEER_PYTHON). llvm_ad_rgb needs libLLVM >= 17 (drjit 1.5 emits llvm.minimum, which Debian's
+# default libLLVM 15 cannot lower); ../shared/tools/peer_mitsuba.py finds the library by itself.
+# If the Mitsuba side cannot be installed, `make peer` still runs mcpt's side and says so.
+# Quick (default): 128x128, 8 bounces, 4/16/64/256 spp, 2 rounds, both scenes (~5 min on 2 cores);
+# PEER_MODE=--full: 256x256 (the issue's size), 2 rounds (~4x longer).
+PEER_MODE ?= --quick
+PEER_VENV := .venv-peer
+PEER_PY := $(PEER_VENV)/bin/python
+PEER_STAMP := $(PEER_VENV)/.installed
+PEER_OUT ?= out/bench-peer
+
+peer-system-deps:
+	@if ! ls /usr/lib/*-linux-gnu/libLLVM-1[7-9].so /usr/lib/*-linux-gnu/libLLVM-2[0-2].so \
+	    /usr/lib/*-linux-gnu/libLLVM.so.1[7-9]* /usr/lib/*-linux-gnu/libLLVM.so.2[0-2]* 2>/dev/null | grep -q .; then \
+	  echo "installing libllvm19 for Mitsuba's llvm_ad_rgb (apt-get)"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null; \
+	fi
+
+$(PEER_STAMP): | peer-system-deps
+	test -x $(PEER_PY) || $(PYTHON) -m venv $(PEER_VENV)
+	$(PEER_PY) -m pip install -q mitsuba numpy openexr
+	$(PEER_PY) -c "import mitsuba, drjit"
+	touch $(PEER_STAMP)
+
+peer-setup: peer-system-deps $(PEER_STAMP)
+
+peer: setup
+	@$(MAKE) --no-print-directory peer-setup \
+	  || echo "peer-setup failed: the Mitsuba side will be skipped"
+	MCPT_PEER_PYTHON=$${MCPT_PEER_PYTHON:-$(abspath $(PEER_PY))} $(PY) -m mcpt.bench.run $(PEER_MODE) --only peer -o $(PEER_OUT)
 
 # Issue #6: the stability suite as a table (case, expected, measured, pass/fail); the same cases
 # run in CI as tests/test_stability.py. GL_BACKEND=osmesa to run it on OSMesa.

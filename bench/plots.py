@@ -249,5 +249,40 @@ def plot_throughput(res: dict, out: Path, meta: dict | None = None) -> list[Path
     return [_save(fig, out / "throughput.png")]
 
 
+def plot_peer(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
+    """relMSE against render seconds, log-log: every mcpt and Mitsuba curve, one panel a scene."""
+    ser = res["summary"]["series"]
+    st = res["settings"]
+    names = list(dict.fromkeys(d["scene"] for d in ser.values())) or ["(no data)"]
+    fig, axes = plt.subplots(1, len(names), figsize=(6.2 * len(names), 4.8), layout="constrained",
+                             squeeze=False)
+    marks = {"mcpt": ("o", "-"), "mitsuba": ("s", "--")}
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, name in zip(axes[0], names):
+        curves = [d for d in ser.values() if d["scene"] == name]
+        for i, d in enumerate(curves):
+            c = colors[i % len(colors)]
+            mk, ls = marks.get(d["renderer"], ("^", ":"))
+            fit = d.get("fit_relmse_vs_seconds")
+            slope = f", slope {fit['slope']:.2f}" if fit else ""
+            ax.plot(d["seconds"], d["relmse"], mk + ls, color=c, ms=4, lw=1,
+                    label=f"{d['label']} ({d['paths_per_second'] / 1e6:.2f} Mpaths/s{slope})")
+            for s, t, e in zip(d["spp"], d["seconds"], d["relmse"]):
+                ax.annotate(str(s), (t, e), fontsize=6, color=c, xytext=(3, 3), textcoords="offset points")
+            for tt in d.get("time_to_relmse", []):
+                if tt["seconds"]:
+                    ax.plot([tt["seconds"]], [tt["threshold"]], "*", ms=10, color=c, mec="k", mew=0.5,
+                            alpha=1.0 if tt["method"] == "interpolated" else 0.5)
+        for thr in st.get("thresholds", (1e-2, 1e-3)):
+            ax.axhline(thr, color="k", ls=":", lw=0.8)
+        _loglog(ax, "render seconds (each tool's timer, set-up excluded)",
+                "relMSE = mean((x−ref)² / (ref² + 0.01))",
+                f"{name}: {st['resolution'][0]}x{st['resolution'][1]}, {st['bounces']} bounces, "
+                f"{st['rounds']} round(s)")
+    fig.suptitle("mcpt and Mitsuba 3 side by side, alternating in one run (labels: spp; stars: time "
+                 f"to relMSE, faint = extrapolated) — {_gl_note(meta)}", fontsize=9)
+    return [_save(fig, out / "peer.png")]
+
+
 PLOTS = {"bounces": plot_bounces, "triangles": plot_triangles, "error": plot_error,
-         "throughput": plot_throughput}
+         "throughput": plot_throughput, "peer": plot_peer}

@@ -11,11 +11,13 @@ import time
 import traceback
 from pathlib import Path
 
-from . import common, plots, report, sweeps
+from . import common, peer_run, plots, report, sweeps
 
+# "all" is the default set; "peer" (mcpt and Mitsuba 3 side by side, issue #14) runs when named.
+SWEEPS = {**sweeps.SWEEPS, "peer": peer_run.peer_sweep}
 ALL = tuple(sweeps.SWEEPS)
 ALIASES = {"spec": "throughput", "paths": "throughput", "tris": "triangles", "err": "error",
-           "bounce": "bounces"}
+           "bounce": "bounces", "mitsuba": "peer"}
 
 
 def resolve(names) -> list[str]:
@@ -30,8 +32,8 @@ def resolve(names) -> list[str]:
                 out += [x for x in ALL if x not in out]
                 continue
             n = ALIASES.get(n, n)
-            if n not in sweeps.SWEEPS:
-                raise ValueError(f"unknown sweep {n!r}; choose from {', '.join(ALL)} (or all)")
+            if n not in SWEEPS:
+                raise ValueError(f"unknown sweep {n!r}; choose from {', '.join(SWEEPS)} (or all)")
             if n not in out:
                 out.append(n)
     return out
@@ -49,7 +51,7 @@ def run(names, cfg: sweeps.Config, log=print, argv=None) -> dict:
         t0 = time.perf_counter()
         err_file = out / f"{name}.error.txt"
         try:
-            res = sweeps.SWEEPS[name](cfg, log)
+            res = SWEEPS[name](cfg, log)
         except Exception as exc:  # keep going: one broken sweep must not hide the others
             failed[name] = f"{type(exc).__name__}: {exc}"
             err_file.write_text(traceback.format_exc())

@@ -10,11 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+from mcpt.bench import common, mitsuba, peer, peer_run, plots, scenes, suite, sweeps
 
-from mcpt.bench import common, scenes, suite, sweeps  # noqa: E402
+from .conftest import ROOT, shared_path
 
 # ------------------------------------------------------------------------------------------------
 # Pure parts
@@ -94,6 +92,7 @@ def test_records_are_plain_json_with_meta(tmp_path):
 
 def test_sweep_names_resolve_with_aliases():
     assert suite.resolve(None) == list(suite.ALL)
+    assert "peer" not in suite.ALL and suite.resolve(["peer"]) == ["peer"]   # opt-in: it runs Mitsuba
     assert suite.resolve(["spec,tris", "error"]) == ["throughput", "triangles", "error"]
     with pytest.raises(ValueError, match="unknown sweep"):
         suite.resolve(["nope"])
@@ -161,3 +160,134 @@ def test_suite_writes_records_plots_and_report(gl, tmp_path):
     report = (tmp_path / "REPORT.md").read_text()
     assert "![bounces](bounces.png)" in report and "## Render time against triangle count" in report
     assert not math.isnan(tp["summary"]["scenes"]["cornell"]["paths_per_second"])
+
+
+# ------------------------------------------------------------------------------------------------
+# Side by side with Mitsuba 3 (issue #14)
+# ------------------------------------------------------------------------------------------------
+
+
+def _synthetic_peer_records():
+    """Exact power laws, three rounds. mcpt: relMSE = 0.3/spp in 0.01 s a pass; Mitsuba:
+    relMSE = 0.27/spp in 0.004 s a pass. Round 1 is 3x slower (load) and the rounds' errors are
+    0.9x, 1.0x, 1.1x the law, so the median time and the mean error are the law's exactly."""
+    recs = []
+    for rend, k, dt in (("mcpt", 0.3, 0.01), ("mitsuba", 0.27, 0.004)):
+        for rnd, (slow, err) in enumerate(((1.0, 0.9), (3.0, 1.0), (1.0, 1.1))):
+            for spp in (4, 16, 64, 256):
+                t = spp * dt * slow
+                recs.append({"scene": "box", "renderer": rend, "sampler": "independent",
+                             "label": rend, "round": rnd, "spp": spp, "seconds": t, "cpu_seconds": 2 * t,
+                             "relmse": err * k / spp, "rmse": 0.0, "paths_per_second": 100 * spp / t,
+                             "paths_per_cpu_second": 100 * spp / (2 * t)})
+    return recs
+
+
+def test_peer_time_to_error_and_ratios_on_synthetic_data():
+    s = peer.summarize(_synthetic_peer_records(), (1e-2, 1e-3))
+    a, b = s["series"]["box/mcpt/independent"], s["series"]["box/mitsuba/independent"]
+    assert a["seconds"] == pytest.approx([0.04, 0.16, 0.64, 2.56])          # medians over rounds
+    assert a["relmse"] == pytest.approx([0.3 / n for n in (4, 16, 64, 256)])  # means over rounds
+    assert a["paths_per_second"] == pytest.approx(100 / 0.01)
+    # relMSE = 0.003 / t (mcpt), 0.00108 / t (Mitsuba)
+    t1, t2 = a["time_to_relmse"]
+    assert t1["method"] == "interpolated" and t1["seconds"] == pytest.approx(0.3)
+    assert t2["method"] == "extrapolated" and t2["seconds"] == pytest.approx(3.0)  # 300 spp > 256
+    assert [x["seconds"] for x in b["time_to_relmse"]] == pytest.approx([0.108, 1.08])
+    assert a["fit_relmse_vs_seconds"]["slope"] == pytest.approx(-1.0)
+    (r,) = s["ratios"]
+    assert (r["mcpt"], r["mitsuba"], r["equal_spp"]) == ("independent", "independent", 256)
+    assert r["paths_per_second_ratio"] == pytest.approx(0.4)
+    assert r["time_to_relmse_ratio"] == pytest.approx([0.3 / 0.108, 3.0 / 1.08])
+    assert r["cpu_time_to_relmse_ratio"] == pytest.approx([0.3 / 0.108, 3.0 / 1.08])
+    assert r["relmse_ratio_at_equal_spp"] == pytest.approx(0.3 / 0.27)
+    text = "\n".join(peer.summary_lines(s))
+    assert "paths/s 0.4" in text and "time to 0.01 2.78" in text
+
+
+def test_mitsuba_output_parsing_skips_warnings_and_reads_the_rounded_sample_count():
+    out = ("\x1b[31m2026-11-22 WARN  [MultijitterSampler] Sample count rounded up to 42\n"
+           '\x1b[0m{\n "spp": 37,\n "median_render_s": 0.5\n}\n')
+    d = mitsuba.parse_output(out)
+    assert d["spp"] == 37 and d["spp_actual"] == 42 and d["median_render_s"] == 0.5
+    assert mitsuba.parse_output('{"spp": 16}')["spp_actual"] == 16
+    with pytest.raises(mitsuba.MitsubaError):
+        mitsuba.parse_output("LLVM ERROR: Cannot select")
+
+
+def test_mitsuba_absent_is_reported_not_raised(tmp_path, monkeypatch):
+    monkeypatch.setenv("MCPT_PEER_PYTHON", str(tmp_path / "no-python"))
+    a = mitsuba.available()
+    assert not a.ok and "no-python" in a.reason
+
+
+def test_ref_scene_folder_becomes_the_same_mcpt_scene(tmp_path):
+    from mcpt.scene import load_scene
+
+    d = shared_path("scenes-ref", "cornell")
+    sc = load_scene(scenes.write(peer_run.ref_scene_yaml(d), tmp_path, "c"))
+    ref = load_scene(ROOT / "scenes" / "cornell-box.yaml")
+    assert len(sc.meshes) == len(ref.meshes) == 6
+    assert sc.render.bounces == ref.render.bounces == 8
+    assert sc.camera.vfov_deg == ref.camera.vfov_deg
+
+
+def test_peer_sweep_without_mitsuba_runs_mcpt_and_says_so(gl, tmp_path, monkeypatch):
+    shared_path("scenes-ref", "cornell", "reference.exr")
+    monkeypatch.setenv("MCPT_PEER_PYTHON", str(tmp_path / "no-python"))
+    lines = []
+    pc = peer_run.peer_config(True, scenes=("cornell",), resolution=32, spp=(1, 4, 16), rounds=1)
+    res = peer_run.peer_sweep(_tiny(tmp_path), lines.append, pc)
+    skip = [ln for ln in lines if "Mitsuba 3 not available" in ln]
+    assert len(skip) == 1 and "skipping its side" in skip[0]
+    recs = res["records"]
+    names, _ = peer_run.mcpt_sampler_api()
+    assert {r["renderer"] for r in recs} == {"mcpt"} and len(recs) == 3 * len(names)
+    assert all(r["relmse"] > 0 and r["paths_per_second"] > 0 for r in recs)
+    assert res["summary"]["ratios"] == [] and not res["summary"]["mitsuba"]["available"]
+    ser = res["summary"]["series"]["cornell/mcpt/independent"]
+    assert ser["relmse"][2] < ser["relmse"][0] / 4                    # 16x the samples
+    assert (tmp_path / "PEER.md").read_text().count("Mitsuba 3 not available") == 1
+    assert plots.plot_peer(res, tmp_path)[0].stat().st_size > 0
+
+
+def test_mcpt_sampler_is_passed_where_the_api_takes_it(monkeypatch):
+    """Before mcpt has a sampler choice: ('independent',), passed nowhere. Once ``prepare`` takes
+    ``sampler=`` and a SAMPLERS tuple names them, every name is offered and goes to prepare."""
+    import mcpt.api
+    import mcpt.gpu.features
+
+    def prepare(scene, *, sampler=None, **kw):  # the signature is all that is looked at
+        raise AssertionError
+
+    monkeypatch.setattr(mcpt.api, "prepare", prepare)
+    monkeypatch.setattr(mcpt.gpu.features, "SAMPLERS", ("sobol", "independent"), raising=False)
+    assert peer_run.mcpt_sampler_api() == (("sobol", "independent"), "prepare")
+    monkeypatch.delattr(mcpt.gpu.features, "SAMPLERS")
+    monkeypatch.delattr(mcpt.api, "prepare")
+
+    def plain(scene, *, spp=None, **kw):
+        raise AssertionError
+
+    monkeypatch.setattr(mcpt.api, "prepare", plain, raising=False)
+    names, where = peer_run.mcpt_sampler_api()
+    assert "independent" in names and (where is None) == (names == ("independent",))
+
+
+def test_peer_sweep_with_a_broken_mitsuba_says_so_once(gl, tmp_path, monkeypatch):
+    """A Mitsuba that imports but cannot render (llvm_ad_rgb on libLLVM 15 aborts): one line, no
+    Mitsuba records, mcpt's side still measured."""
+    shared_path("scenes-ref", "cornell", "reference.exr")
+    fake = tmp_path / "fake-python"
+    fake.write_text('#!/bin/sh\ncase "$1" in -c) echo 3.9.1;; '
+                    '*) echo "LLVM ERROR: Cannot select: fminimum" >&2; exit 134;; esac\n')
+    fake.chmod(0o755)
+    monkeypatch.setenv("MCPT_PEER_PYTHON", str(fake))
+    lines = []
+    pc = peer_run.peer_config(True, resolution=32, spp=(1, 4), rounds=1)
+    res = peer_run.peer_sweep(_tiny(tmp_path), lines.append, pc)
+    bad = [ln for ln in lines if "Mitsuba" in ln and "skipping its side" in ln]
+    assert len(bad) == 1 and "Cannot select" in bad[0]
+    assert {r["renderer"] for r in res["records"]} == {"mcpt"}
+    assert {r["scene"] for r in res["records"]} == {"cornell", "cornell-sphere-100k"}
+    assert res["summary"]["mitsuba"]["available"] is False
