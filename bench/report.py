@@ -6,7 +6,7 @@ from pathlib import Path
 
 from . import common
 
-ORDER = ("throughput", "error", "triangles", "bounces")
+ORDER = ("peer", "throughput", "error", "triangles", "bounces")
 
 
 def _f(x, fmt=".3g", none="—"):
@@ -166,16 +166,22 @@ def section_bounces(d: dict) -> list[str]:
     return L
 
 
+def section_peer(d: dict) -> list[str]:
+    from .peer import report_lines
+
+    return report_lines(d["summary"], d["settings"]) + ["", "![peer](peer.png)", ""]
+
+
 SECTIONS = {"throughput": section_throughput, "error": section_error,
-            "triangles": section_triangles, "bounces": section_bounces}
+            "triangles": section_triangles, "bounces": section_bounces, "peer": section_peer}
 
 
 def write_report(out: Path, quick: bool | None = None) -> Path:
     out = Path(out)
     L = ["# mcpt benchmark report", "",
-         "Written by `bench/run.py` / `mcpt bench`; the numbers are in the JSON files beside this "
-         "report (one per sweep). Peer figures (Mitsuba 3) come from ../shared/research and were "
-         "measured on the same kind of 2-core machine, not in this run.", ""]
+         "Written by `python -m mcpt.bench.run` / `mcpt bench`; the numbers are in the JSON files "
+         "beside this report (one per sweep). Mitsuba 3 figures come from the peer sweep of the same "
+         "run where it ran (`--only peer`), else from ../shared/research (same kind of machine).", ""]
     for name in ORDER:
         p = out / f"{name}.json"
         if p.exists():
