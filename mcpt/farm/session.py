@@ -40,6 +40,7 @@ class Options:
     overrides: tuple = ()                 # -D KEY=VALUE
     workers: int | None = None
     scheduler: str | None = None
+    client: object = None                 # a distributed.Client to use (tests, notebooks)
     progress: object = None               # progress(done, total, passes_this_run, seconds)
     started: float = field(default_factory=time.perf_counter)
 
@@ -136,10 +137,11 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
         saved.append(state_file)
         control.last_checkpoint = time.perf_counter()
 
-    if opts.workers or opts.scheduler:
+    if opts.workers or opts.scheduler or opts.client is not None:
         from .cluster import render_on_cluster
 
-        render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing)
+        render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing,
+                          client=opts.client)
     else:
         while acc.done < spp and control.stop is None:
             base, count, action = acc.done, 0, [None]
