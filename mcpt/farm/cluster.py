@@ -77,7 +77,7 @@ def ranges(start: int, stop: int, chunk: int = CHUNK) -> list[tuple[int, int]]:
 
 def render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing, client=None):
     """Draw passes ``acc.done .. spp-1`` on Dask workers into ``acc`` (see the module docstring)."""
-    from distributed import Client, as_completed
+    from distributed import Client
 
     own = client is None
     cluster = None
@@ -97,6 +97,8 @@ def render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing,
 
 
 def _run(client, p, opts, acc, spp, seed, control, save_checkpoint):
+    from distributed import as_completed
+
     r = p.renderer
     job = job_for(p, opts)
     jid = job_id(job)
