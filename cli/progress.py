@@ -5,12 +5,13 @@ regular expression can read (numbers only, fixed keys, one space apart)::
 
     mcpt: progress 42.2% passes 27/64 paths/s 1.234e+05 left 12.3s
 
-``left`` is ``-`` until a pass has been timed. The paths/s figure counts the passes drawn by this
+The interval is 5 s, or ``$MCPT_PROGRESS_INTERVAL`` seconds. ``left`` is ``-`` until a pass has been timed. The paths/s figure counts the passes drawn by this
 run (a resumed render does not count the checkpoint's passes as fast ones).
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
@@ -72,10 +73,13 @@ class Plain:
         stream.flush()
 
 
-def make(mode: str, quiet: bool, interval: float = 5.0):
-    """``auto``: the bar on a terminal, plain lines when stdout is not one; ``none`` or --quiet: off."""
+def make(mode: str, quiet: bool, interval: float | None = None):
+    """``auto``: the bar on a terminal, plain lines when stdout is not one; ``none`` or --quiet: off.
+    The plain interval: ``interval``, else $MCPT_PROGRESS_INTERVAL, else 5 seconds."""
     if quiet or mode == "none":
         return None
+    if interval is None:
+        interval = float(os.environ.get("MCPT_PROGRESS_INTERVAL") or 5.0)
     if mode == "auto":
         mode = "bar" if sys.stdout.isatty() and sys.stderr.isatty() else "plain"
     return Bar() if mode == "bar" else Plain(interval=interval)
