@@ -79,16 +79,21 @@ def render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing,
     """Draw passes ``acc.done .. spp-1`` on Dask workers into ``acc`` (see the module docstring)."""
     from distributed import Client
 
+    import time
+
     own = client is None
     cluster = None
+    t0 = time.perf_counter()
     if own:
         if opts.scheduler:
             client = Client(opts.scheduler, timeout="20s")
         else:
             cluster = local_cluster(opts.workers)
             client = Client(cluster)
+    timing["cluster_seconds"] = time.perf_counter() - t0
+    timing["workers"] = len(client.scheduler_info()["workers"])
     try:
-        _run(client, p, opts, acc, spp, seed, control, save_checkpoint)
+        timing["tasks"] = _run(client, p, opts, acc, spp, seed, control, save_checkpoint)
     finally:
         if own:
             client.close()
@@ -134,7 +139,8 @@ def _run(client, p, opts, acc, spp, seed, control, save_checkpoint):
                 if action == "checkpoint":
                     save_checkpoint()
                 elif action == "stop":
-                    return
+                    return len(futures) - len(pending)
+        return len(futures)
     finally:
         for fut in pending:
             fut.cancel()

@@ -55,6 +55,7 @@ class Outcome:
     resumed_from: int = 0
     written: list = field(default_factory=list)
     stopped_by: str | None = None         # "signal", "time" or None (all passes done)
+    farm: dict = field(default_factory=dict)  # cluster_seconds, workers, tasks (Dask renders)
 
 
 class Control:
@@ -168,8 +169,9 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
         with signals.writing():
             written = _write(p, opts, acc, spp, record, seconds(), timing["random"])
     result = _result(p, acc, seconds(), timing["random"])
+    farm = {k: v for k, v in timing.items() if k != "random"}
     return Outcome(result, metadata(p, result), spp, signals.signum,
-                   saved[-1] if saved else None, resumed_from, written, control.stop)
+                   saved[-1] if saved else None, resumed_from, written, control.stop, farm)
 
 
 def _result(p, acc: Accumulator, seconds: float, random_seconds: float):
