@@ -24,8 +24,10 @@ class Bar:
 
     def __init__(self, pixels: int = 1):
         self.pixels = pixels
+        self.open = False
 
     def __call__(self, done: int, total: int, run: int, seconds: float) -> None:
+        self.open = done != total
         rate = self.pixels * run / max(seconds, 1e-9)
         left = seconds / max(run, 1) * (total - done)
         bar = "#" * int(30 * done / total)
@@ -36,7 +38,9 @@ class Bar:
         sys.stderr.flush()
 
     def close(self) -> None:
-        pass
+        if self.open:  # stopped early: end the line the bar was redrawn on
+            sys.stderr.write("\n")
+            self.open = False
 
 
 class Plain:

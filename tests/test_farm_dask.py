@@ -68,3 +68,14 @@ def test_a_killed_worker_costs_time_not_pixels(folder, client):
     assert killed[0] not in client.run(os.getpid).values()
     one = render(folder, "one.exr", spp, seed=11)
     assert same_bits(one, farm)
+
+
+def test_farm_resumes_a_one_process_checkpoint_bit_for_bit(folder, client):
+    """A checkpoint that ended inside a chunk (100 passes), resumed on the farm to 200: the first
+    task carries the unfinished chunk; the image equals one uninterrupted 200-pass render."""
+    opts = Options([str(folder / "c.exr")], spp=100, checkpoint=1e6)
+    assert run(folder / "scene.yaml", opts, StopSignals()).checkpoint is not None
+    opts = Options([str(folder / "c.exr")], spp=200, resume=True, client=client)
+    out = run(folder / "scene.yaml", opts, StopSignals())
+    assert out.resumed_from == 100 and out.result.spp == 200
+    assert same_bits(out.result.image, render(folder, "ref.exr", 200))

@@ -19,13 +19,8 @@ import os
 
 import numpy as np
 
-from ..errors import McptError
 from .accumulate import CHUNK
-from .worker import job_id, render_chunks
-
-
-class FarmError(McptError, RuntimeError):
-    pass
+from .worker import FarmError, job_id, render_chunks
 
 
 def require_dask():
@@ -86,7 +81,11 @@ def render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing,
     t0 = time.perf_counter()
     if own:
         if opts.scheduler:
-            client = Client(opts.scheduler, timeout="20s")
+            try:
+                client = Client(opts.scheduler, timeout="20s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise FarmError(f"--scheduler {opts.scheduler}: cannot reach the Dask scheduler "
+                                f"({' '.join(str(exc).split())[:200]})") from None
         else:
             cluster = local_cluster(opts.workers)
             client = Client(cluster)

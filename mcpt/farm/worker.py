@@ -18,6 +18,13 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ..errors import McptError
+
+
+class FarmError(McptError, RuntimeError):
+    """A farm that cannot render this job (no Dask, scheduler unreachable, a worker with other files)."""
+
+
 _GL_THREAD = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mcpt-gl")
 _PREPARED: dict[str, object] = {}
 
@@ -42,11 +49,11 @@ def _prepared(job: dict):
                     clamp=job["clamp"])
         found = settings(p.scene, features_mode=job["features_mode"], clamp=job["clamp"])
         if found["scene_hash"] != job["scene_hash"]:
-            raise RuntimeError(f"{job['scene']} on this worker is not the scene being rendered "
+            raise FarmError(f"{job['scene']} on this worker is not the scene being rendered "
                                f"(hash {found['scene_hash']}, expected {job['scene_hash']}); "
                                "workers need the same scene files at the same path")
         if [list(t) for t in p.renderer.tiles] != [list(t) for t in job["tiles"]]:
-            raise RuntimeError("this worker's GL limits split the image into other tiles")
+            raise FarmError("this worker's GL limits split the image into other tiles")
         _PREPARED[key] = p
     return _PREPARED[key]
 
