@@ -85,8 +85,12 @@ def header(path) -> dict:
 
 
 def same_bits(a, b) -> bool:
-    a, b = np.asarray(a, np.float32), np.asarray(b, np.float32)
-    return a.shape == b.shape and np.array_equal(a.view(np.uint32), b.view(np.uint32))
+    """Equal bit for bit (float32 or float64, which must match)."""
+    a, b = np.asarray(a), np.asarray(b)
+    if a.dtype != b.dtype or a.shape != b.shape or a.dtype.kind != "f":
+        return False
+    as_int = {4: np.uint32, 8: np.uint64}[a.dtype.itemsize]
+    return np.array_equal(a.view(as_int), b.view(as_int))
 
 
 def no_temp_files(folder: Path) -> bool:
@@ -338,3 +342,35 @@ def test_workers_without_dask_is_one_line(folder, monkeypatch):
     r = invoke("scene.yaml", "--workers", "2", "-o", "x.exr")
     assert r.exit_code == 2
     assert r.stderr.strip() == "mcpt: error: --workers and --scheduler need Dask: pip install 'mcpt[farm]'"
+
+
+def test_tiles_drawn_one_by_one_give_the_whole_image(folder, gl):
+    """Farm tasks draw one tile each (Renderer.passes(tiles=[i])): put together in pass order
+    they are the one-process read-backs, bit for bit, also carrying an unfinished chunk."""
+    from mcpt.farm.accumulate import Accumulator
+    from mcpt.gpu.features import for_world
+    from mcpt.gpu.pack import pack
+    from mcpt.gpu.render import Renderer
+    from mcpt.scene import load_scene
+    from mcpt.shapes.world import load_world
+
+    world = load_world(load_scene(folder / "scene.yaml"))
+    feats = for_world(world)
+    # 12x10 pixels, 11 random numbers per pixel: at most 3 rows per tile -> 4 tiles.
+    r = Renderer(gl, feats, pack(world, feats), max_random_per_tile=12 * feats.random_dims * 3)
+    try:
+        assert len(r.tiles) == 4
+        whole = Accumulator.empty(1, r.height, r.width, chunk=8)
+        for done, sums in r.passes(7, 0, 20, chunk=8):
+            whole.add(done, sums)
+        parts = Accumulator.empty(1, r.height, r.width, chunk=8)
+        reads = {}
+        for i, (_, y0, _, h) in enumerate(r.tiles):
+            for done, sums in r.passes(7, 0, 20, chunk=8, tiles=[i]):
+                reads.setdefault(done, np.zeros_like(sums))[:, y0:y0 + h] = sums[:, y0:y0 + h]
+        for done in sorted(reads):
+            parts.add(done, reads[done])
+        assert same_bits(parts.totals(), whole.totals())
+        assert whole.partial is not None and np.any(whole.totals() != 0)
+    finally:
+        r.release()
