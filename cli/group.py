@@ -46,7 +46,8 @@ def reports_errors(fn):
             click.echo(f"mcpt: error: {exc}", err=True)
             sys.exit(EXIT_INPUT)
         except Interrupted as exc:  # a signal during a write: the write was undone
-            click.echo(f"mcpt: interrupted by {exc.name}: nothing written", err=True)
+            click.echo(f"mcpt: interrupted by {exc.name} while writing: that file was left as it "
+                       "was", err=True)
             sys.exit(exc.exit_code)
         except KeyboardInterrupt:
             click.echo("mcpt: interrupted", err=True)

@@ -170,7 +170,8 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
             written = _write(p, opts, acc, spp, record, seconds(), timing["random"])
     result = _result(p, acc, seconds(), timing["random"])
     farm = {k: v for k, v in timing.items() if k != "random"}
-    return Outcome(result, metadata(p, result), spp, signals.signum,
+    stopped = signals.signum if control.stop == "signal" else None  # after the last pass: done
+    return Outcome(result, metadata(p, result), spp, stopped,
                    saved[-1] if saved else None, resumed_from, written, control.stop, farm)
 
 
