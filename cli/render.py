@@ -96,6 +96,6 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
                   if out.stopped_by == "time" else "")
         click.echo(f"wrote {', '.join(outputs)}: {meta['width']}x{meta['height']}, {result.spp} spp"
                    f"{budget}, {result.bounces} bounces, {result.render_seconds:.2f} s render "
-                   f"({result.paths_per_second / 1e6:.2f} Mpaths/s), set-up {meta['setup_seconds']:.2f} s"
+                   f"({meta['paths_per_second'] / 1e6:.2f} Mpaths/s), set-up {meta['setup_seconds']:.2f} s"
                    + (f", {result.dropped_samples} non-finite samples dropped" if result.dropped_samples else ""),
                    err=True)

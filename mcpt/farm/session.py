@@ -134,7 +134,7 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
     def save_checkpoint():
         with signals.writing():
             st.save(state_file, acc, {**record, "spp_requested": spp})
-            _write(p, opts, acc, spp, record, seconds(), timing["random"])
+            _write(p, opts, acc, spp, record, seconds(), timing["random"], resumed_from)
         saved.append(state_file)
         control.last_checkpoint = time.perf_counter()
 
@@ -167,21 +167,31 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
         written = list(opts.outputs)
     elif acc.done > 0:
         with signals.writing():
-            written = _write(p, opts, acc, spp, record, seconds(), timing["random"])
+            written = _write(p, opts, acc, spp, record, seconds(), timing["random"], resumed_from)
     result = _result(p, acc, seconds(), timing["random"])
     farm = {k: v for k, v in timing.items() if k != "random"}
     stopped = signals.signum if control.stop == "signal" else None  # after the last pass: done
-    return Outcome(result, metadata(p, result), spp, stopped,
+    return Outcome(result, _metadata(p, result, resumed_from), spp, stopped,
                    saved[-1] if saved else None, resumed_from, written, control.stop, farm)
+
+
+def _metadata(p, result, resumed_from: int) -> dict:
+    """api.metadata, with paths/s over the passes THIS run drew (a resumed render's checkpoint
+    passes took no time here)."""
+    meta = metadata(p, result)
+    h, w, _ = result.image.shape
+    meta["paths_per_second"] = w * h * (result.spp - resumed_from) / max(result.render_seconds, 1e-12)
+    meta["resumed_from"] = resumed_from
+    return meta
 
 
 def _result(p, acc: Accumulator, seconds: float, random_seconds: float):
     return p.renderer.result(acc.totals(), acc.done, p.scene.render.seed, seconds, random_seconds)
 
 
-def _write(p, opts, acc, spp, record, seconds, random_seconds) -> list:
+def _write(p, opts, acc, spp, record, seconds, random_seconds, resumed_from) -> list:
     result = _result(p, acc, seconds, random_seconds)
-    hdr = header(metadata(p, result), record, spp)
+    hdr = header(_metadata(p, result, resumed_from), record, spp)
     for output in opts.outputs:
         write_image(output, result.image, hdr, opts.exposure)
     return list(opts.outputs)
