@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 SCENE ?= scenes/cornell-box.yaml
 
-.PHONY: all setup system-deps render test test-osmesa bench stability goldens wheel clean \
+.PHONY: all setup system-deps render test test-osmesa bench bench-farm stability goldens wheel clean \
         peer peer-setup peer-system-deps
 
 all: test
@@ -75,6 +75,10 @@ peer: setup
 	@$(MAKE) --no-print-directory peer-setup \
 	  || echo "peer-setup failed: the Mitsuba side will be skipped"
 	MCPT_PEER_PYTHON=$${MCPT_PEER_PYTHON:-$(abspath $(PEER_PY))} $(PY) -m mcpt.bench.run $(PEER_MODE) --only peer -o $(PEER_OUT)
+
+# Issue #11: Cornell box in one process against a 2-worker Dask LocalCluster (bench/RESULTS.md).
+bench-farm: setup
+	$(PY) -m mcpt.bench.farm --resolution 64 --spp 1024 --rounds 3
 
 # Issue #6: the stability suite as a table (case, expected, measured, pass/fail); the same cases
 # run in CI as tests/test_stability.py. GL_BACKEND=osmesa to run it on OSMesa.

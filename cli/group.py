@@ -10,6 +10,10 @@ import click
 
 from mcpt import __version__
 from mcpt.errors import McptError
+from mcpt.farm.signals import Interrupted
+from mcpt.gpu.context import GLError
+
+EXIT_INTERNAL, EXIT_INPUT, EXIT_GL = 1, 2, 3
 
 
 def _command_name() -> str:
@@ -25,8 +29,9 @@ def _verbosity() -> int:
 def reports_errors(fn):
     """Turn user errors (:class:`mcpt.errors.McptError`) into one 'mcpt: error: ...' line, exit 2.
 
-    Anything else is a bug, still reported on one line (exit 1) unless -vv asks for the
-    traceback; Ctrl-C exits 130. No command writes its image before the work is done, and images
+    Exit codes (README "Exit codes"): 0 done; 1 internal error (a bug, reported on one line unless
+    -vv asks for the traceback); 2 bad input; 3 no usable OpenGL; 128 + the signal for a stop
+    signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP: mcpt/farm/signals.py). No command writes its image before the work is done, and images
     are renamed into place when complete (mcpt/output/image.py), so no failure leaves a partial image.
     """
 
@@ -34,9 +39,16 @@ def reports_errors(fn):
     def wrapper(*args, **kwargs):
         try:
             return fn(*args, **kwargs)
+        except GLError as exc:
+            click.echo(f"mcpt: error: {exc}", err=True)
+            sys.exit(EXIT_GL)
         except McptError as exc:
             click.echo(f"mcpt: error: {exc}", err=True)
-            sys.exit(2)
+            sys.exit(EXIT_INPUT)
+        except Interrupted as exc:  # a signal during a write: the write was undone
+            click.echo(f"mcpt: interrupted by {exc.name} while writing: that file was left as it "
+                       "was", err=True)
+            sys.exit(exc.exit_code)
         except KeyboardInterrupt:
             click.echo("mcpt: interrupted", err=True)
             sys.exit(130)

@@ -1,37 +1,18 @@
-"""``mcpt render``: scene file in, EXR or PNG out."""
+"""``mcpt render``: scene file in, EXR or PNG out; time budgets, checkpoints, resume, signals,
+Dask workers (mcpt/farm/). Exit codes: README "Exit codes" and cli/group.py."""
 
 from __future__ import annotations
 
 import json
-import sys
 import time
 
 import click
 
 from mcpt import __version__
 
+from . import progress as progress_mod
 from .group import main, reports_errors
 from .options import finite, positive_finite, render_options
-
-
-class Progress:
-    """Passes done, paths/s and time left on a terminal; silent when stderr is piped."""
-
-    def __init__(self, pixels: int, enabled: bool):
-        self.pixels, self.enabled, self.t0 = pixels, enabled, time.perf_counter()
-
-    def __call__(self, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        dt = time.perf_counter() - self.t0
-        rate = self.pixels * done / max(dt, 1e-9)
-        left = dt / done * (total - done)
-        bar = "#" * int(30 * done / total)
-        sys.stderr.write(f"\r[{bar:<30}] {done}/{total} passes  {rate / 1e6:6.2f} Mpaths/s  "
-                         f"{left:6.1f} s left ")
-        if done == total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
 
 
 @main.command()
@@ -40,32 +21,81 @@ class Progress:
 @click.option("-o", "--output", "outputs", multiple=True, default=["out/render.exr"], show_default=True,
               help="Output image; the format follows the extension (.exr linear float, .png sRGB "
                    "8-bit). Repeat to write several files from one render.")
+@click.option("-D", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="Override a scene key (YAML value), e.g. -D camera.resolution=[512,512] or "
+                   "-D materials.white.albedo=[0.8,0.8,0.8]; repeatable; validated like the file.")
 @click.option("--exposure", type=float, default=0.0, show_default=True, callback=finite,
               help="PNG only: exposure in stops.")
 @click.option("--clamp", type=float, default=None, callback=positive_finite,
               help="BIASED: clamp each sample's largest component to this value (off by default).")
+@click.option("--time", "time_budget", type=float, default=None, callback=positive_finite,
+              metavar="SECONDS",
+              help="Wall-time budget: stop at the pass boundary before it runs out and write the "
+                   "image of the passes done (its header states them: mcpt:spp).")
+@click.option("--checkpoint", type=float, default=None, callback=positive_finite, metavar="SECONDS",
+              help="Every SECONDS write the image and OUTPUT.state.npz (sums, passes, settings), "
+                   "atomically; also on a stop signal and at the end.")
+@click.option("--resume", is_flag=True,
+              help="Continue from OUTPUT.state.npz (first -o) to the spp asked for; bit-identical "
+                   "to an uninterrupted render; refuses a changed scene or setting.")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Render on a Dask LocalCluster of N worker processes (needs mcpt[farm]).")
+@click.option("--scheduler", default=None, metavar="tcp://HOST:8786",
+              help="Render on an existing Dask cluster (needs mcpt[farm]).")
+@click.option("--progress", "progress_mode", type=click.Choice(["auto", "bar", "plain", "none"]),
+              default="auto", show_default=True,
+              help="'plain': one regex-friendly line every few seconds (default when stdout is not "
+                   "a terminal); 'bar': redrawn on a terminal.")
 @click.option("--json", "as_json", is_flag=True, help="Print the render summary as JSON on stdout.")
-@click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--quiet", is_flag=True, help="No progress output.")
 @reports_errors
-def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, outputs, exposure,
-           clamp, as_json, quiet):
+def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, outputs, overrides,
+           exposure, clamp, time_budget, checkpoint, resume, workers, scheduler, progress_mode,
+           as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
-    from mcpt.api import render_scene
+    started = time.perf_counter()
+    from mcpt.farm.session import Options, run
+    from mcpt.farm.signals import StopSignals
     from mcpt.output.image import check_output_path
 
     for output in outputs:
         check_output_path(output)  # fail before minutes of rendering, not after
-    progress = Progress(1, enabled=not quiet and sys.stderr.isatty())
-    result, meta = render_scene(scene_file, outputs=outputs, spp=spp, bounces=bounces, seed=seed,
-                                resolution=resolution, gl_backend=gl_backend,
-                                features_mode=features_mode, clamp=clamp, exposure=exposure,
-                                progress=progress)
-    summary = {"outputs": [str(o) for o in outputs], **meta, "mcpt_version": __version__}
+    if workers is not None or scheduler is not None:
+        from mcpt.farm.cluster import require_dask
+
+        require_dask()
+    prog = progress_mod.make(progress_mode, quiet)
+    opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
+                   gl_backend=gl_backend, features_mode=features_mode, clamp=clamp,
+                   exposure=exposure, time_budget=time_budget, checkpoint=checkpoint, resume=resume,
+                   overrides=tuple(overrides), workers=workers, scheduler=scheduler, progress=prog,
+                   started=started)
+    with StopSignals() as signals:
+        out = run(scene_file, opts, signals)
+    if prog is not None:
+        prog.close()
+    result, meta = out.result, out.meta
+    if out.interrupted is not None:
+        from mcpt.farm.signals import Interrupted
+
+        stop = Interrupted(out.interrupted)
+        kept = (f"checkpoint {out.checkpoint} ({result.spp} passes; continue with --resume)"
+                if out.checkpoint else "nothing written")
+        click.echo(f"mcpt: interrupted by {stop.name} after {result.spp}/{out.spp_requested} "
+                   f"passes: {kept}", err=True)
+        raise SystemExit(stop.exit_code)
+    summary = {"outputs": [str(o) for o in outputs], **meta, "spp_requested": out.spp_requested,
+               "resumed_from": out.resumed_from, "stopped_by": out.stopped_by,
+               "checkpoint": str(out.checkpoint) if out.checkpoint else None,
+               **({"farm": out.farm} if out.farm else {}),
+               "mcpt_version": __version__}
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:
-        click.echo(f"wrote {', '.join(outputs)}: {meta['width']}x{meta['height']}, {result.spp} spp, "
-                   f"{result.bounces} bounces, {result.render_seconds:.2f} s render "
-                   f"({result.paths_per_second / 1e6:.2f} Mpaths/s), set-up {meta['setup_seconds']:.2f} s"
+        budget = (f" (time budget: {result.spp} of {out.spp_requested} spp)"
+                  if out.stopped_by == "time" else "")
+        click.echo(f"wrote {', '.join(outputs)}: {meta['width']}x{meta['height']}, {result.spp} spp"
+                   f"{budget}, {result.bounces} bounces, {result.render_seconds:.2f} s render "
+                   f"({meta['paths_per_second'] / 1e6:.2f} Mpaths/s), set-up {meta['setup_seconds']:.2f} s"
                    + (f", {result.dropped_samples} non-finite samples dropped" if result.dropped_samples else ""),
                    err=True)

@@ -119,7 +119,7 @@ def test_output_under_a_file_fails_before_rendering(folder, monkeypatch):
     from mcpt.gpu import render as render_mod
 
     (folder / "plain").write_text("a file, not a folder")
-    monkeypatch.setattr(render_mod.Renderer, "render", lambda *a, **k: pytest.fail("rendered"))
+    monkeypatch.setattr(render_mod.Renderer, "passes", lambda *a, **k: pytest.fail("rendered"))
     assert_fails_cleanly(invoke("scene.yaml", "-o", "plain/out.exr"), folder, "plain/out.exr",
                          "cannot write", output="plain/out.exr")
 
@@ -130,7 +130,7 @@ def test_unwritable_second_output_writes_nothing_and_renders_nothing(folder, mon
 
     (folder / "plain").write_text("x")
     with_sentinel(folder)
-    monkeypatch.setattr(render_mod.Renderer, "render", lambda *a, **k: pytest.fail("rendered"))
+    monkeypatch.setattr(render_mod.Renderer, "passes", lambda *a, **k: pytest.fail("rendered"))
     assert_fails_cleanly(invoke("scene.yaml", "-o", "out.exr", "-o", "plain/b.exr"), folder,
                          "plain/b.exr", "cannot write")
 
@@ -290,7 +290,7 @@ def test_internal_error_hint_works_as_typed(folder, monkeypatch):
     """The hint names the place -vv goes (before the command), and doing that shows the traceback."""
     from mcpt.gpu import render as render_mod
 
-    monkeypatch.setattr(render_mod.Renderer, "render", lambda *a, **k: (_ for _ in ()).throw(ValueError("boom")))
+    monkeypatch.setattr(render_mod.Renderer, "passes", lambda *a, **k: (_ for _ in ()).throw(ValueError("boom")))
     r = CliRunner().invoke(main, ["render", "scene.yaml", "-o", "out.exr"])
     assert "run 'mcpt -vv render ...'" in r.stderr
     r = CliRunner().invoke(main, ["-vv", "render", "scene.yaml", "-o", "out.exr"])
@@ -354,7 +354,7 @@ def test_interrupted_render_leaves_no_image(folder, monkeypatch):
     def interrupted(self, *a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(render_mod.Renderer, "render", interrupted)
+    monkeypatch.setattr(render_mod.Renderer, "passes", interrupted)
     with_sentinel(folder)
     r = invoke("scene.yaml", "-o", "out.exr")
     assert r.exit_code == 130 and r.stderr.strip() == "mcpt: interrupted"
@@ -391,7 +391,7 @@ def test_unexpected_exception_is_one_line_and_no_image(folder, monkeypatch):
     def boom(self, *a, **k):
         raise ValueError("something\nunexpected")
 
-    monkeypatch.setattr(render_mod.Renderer, "render", boom)
+    monkeypatch.setattr(render_mod.Renderer, "passes", boom)
     with_sentinel(folder)
     r = CliRunner().invoke(main, ["render", "scene.yaml", "-o", "out.exr"])
     assert r.exit_code == 1

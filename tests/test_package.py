@@ -56,5 +56,5 @@ def test_wheel_is_one_namespace_and_runs_outside_the_source_tree(tmp_path):
 def test_help_lists_the_commands():
     result = CliRunner().invoke(main, ["--help"])
     assert result.exit_code == 0
-    for command in ("render", "info"):
+    for command in ("render", "info", "merge"):
         assert command in result.output

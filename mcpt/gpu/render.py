@@ -144,40 +144,69 @@ class Renderer:
         """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``."""
         if spp < 1:
             raise RenderError(f"spp must be >= 1, got {spp}")
+        total = np.zeros((len(self.targets), self.height, self.width, 4), np.float64)
+        t0 = time.perf_counter()
+        for done, sums in self.passes(seed, 0, spp, chunk=chunk):
+            total += sums
+            if progress is not None:
+                progress(done, spp)
+        return self.result(total, spp, seed, time.perf_counter() - t0, self.random_seconds)
+
+    def passes(self, seed: int, start: int, stop: int, *, chunk: int = 64, carry=None,
+               interrupt=None, tiles=None):
+        """Draw passes ``start .. stop-1`` of ``seed``; a generator of ``(passes_done, sums)``.
+
+        ``sums`` is the float32 target read back (and cleared), shape (targets, H, W, 4), yielded at
+        every multiple of ``chunk`` (counted from pass 0, not from ``start``), at ``stop``, and
+        after a pass where ``interrupt()`` is true (then the generator ends). Because read-backs
+        fall on the same passes wherever a render starts, stops or resumes, every way of adding
+        them up in pass order (one render, a resumed one, tasks of a farm) adds the same numbers
+        (mcpt/farm/accumulate.py). ``carry``: the target of an unfinished chunk to continue from;
+        ``tiles``: indices into ``self.tiles`` to draw (default all; other pixels stay 0).
+        """
         ctx = self.gl.ctx
         dims = self.features.random_dims
         streams = [RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
-        total = np.zeros((len(self.targets), self.height, self.width, 4), np.float64)
+        todo = [(i, self.tiles[i]) for i in (range(len(self.tiles)) if tiles is None else tiles)]
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        if carry is not None:
+            for i, target in enumerate(self.targets):
+                target.write(np.ascontiguousarray(np.flipud(carry[i]), np.float32).tobytes())
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         for t in self.tbos.values():
             t.bind()
-        rand_seconds = 0.0
+        self.random_seconds = 0.0
         draws = 0
-        t0 = time.perf_counter()
-        for p in range(spp):
-            for ti, (x0, y0, w, h) in enumerate(self.tiles):
-                tr = time.perf_counter()
-                streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
-                rand_seconds += time.perf_counter() - tr
-                buf = self.random[draws % 2]
-                buf.write(self._numbers)
-                buf.bind()
-                self._uniform("u_tile", (x0, y0, w, h))
-                self._uniform("u_rand_stride", w * h)
-                # GL rows count from the bottom; tiles are given from the top.
-                ctx.scissor = (x0, self.height - y0 - h, w, h)
-                self.vao.render(moderngl.TRIANGLES, vertices=3)
-                draws += 1
-            if (p + 1) % chunk == 0 or p + 1 == spp:
-                total += self._read_and_clear()
-                if progress is not None:
-                    progress(p + 1, spp)
-        ctx.scissor = None
-        ctx.disable(moderngl.BLEND)
-        seconds = time.perf_counter() - t0
+        try:
+            for p in range(start, stop):
+                for ti, (x0, y0, w, h) in todo:
+                    tr = time.perf_counter()
+                    streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
+                    self.random_seconds += time.perf_counter() - tr
+                    buf = self.random[draws % 2]
+                    buf.write(self._numbers)
+                    buf.bind()
+                    self._uniform("u_tile", (x0, y0, w, h))
+                    self._uniform("u_rand_stride", w * h)
+                    # GL rows count from the bottom; tiles are given from the top.
+                    ctx.scissor = (x0, self.height - y0 - h, w, h)
+                    self.vao.render(moderngl.TRIANGLES, vertices=3)
+                    draws += 1
+                stopping = interrupt is not None and interrupt()
+                if (p + 1) % chunk == 0 or p + 1 == stop or stopping:
+                    ctx.scissor = None
+                    yield p + 1, self._read_and_clear(np.float32)
+                if stopping:
+                    return
+        finally:
+            ctx.scissor = None
+            ctx.disable(moderngl.BLEND)
+
+    def result(self, total: np.ndarray, spp: int, seed: int, seconds: float,
+               random_seconds: float) -> RenderResult:
+        """The image (and variance) from the float64 sums of ``spp`` passes."""
         # Non-finite samples were written as 0 with alpha 1: the mean is over the valid ones.
         dropped = int(round(total[0, ..., 3].sum()))
         n = np.maximum(spp - total[0, ..., 3], 1.0)[..., None]
@@ -187,15 +216,15 @@ class Renderer:
             var = np.maximum(total[1, ..., :3] / n - image**2, 0.0) * n / np.maximum(n - 1.0, 1.0)
             variance = (var / n).astype(np.float32)
         return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
-                            dropped, seconds, rand_seconds, dict(self.setup))
+                            dropped, seconds, random_seconds, dict(self.setup))
 
-    def _read_and_clear(self) -> np.ndarray:
+    def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
         out = []
         for i in range(len(self.targets)):
             raw = np.frombuffer(self.fbo.read(components=4, dtype="f4", attachment=i), np.float32)
             out.append(np.flipud(raw.reshape(self.height, self.width, 4)))
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
-        return np.stack(out).astype(np.float64)
+        return np.stack(out).astype(dtype)
 
     def release(self) -> None:
         for t in list(self.tbos.values()) + self.random:

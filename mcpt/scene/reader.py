@@ -10,6 +10,8 @@ from pydantic import ValidationError
 
 from .diagnostics import SceneError, _dotted, _KeyPath, _to_scene_error, _type_name
 from .model import Scene
+from .overrides import apply as apply_overrides
+from .overrides import blame
 
 #: Largest scene file read (bytes): scenes are small, meshes live in their own files.
 MAX_FILE_BYTES = 16 * 2**20
@@ -116,9 +118,10 @@ _FLOAT_12 = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]
 _SceneLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+.0123456789"))
 
 
-def parse_scene(text: str, path: str | Path) -> Scene:
+def parse_scene(text: str, path: str | Path, overrides=()) -> Scene:
     """Parse and validate scene YAML ``text``; ``path`` names the file (for messages) and its
-    folder anchors relative mesh paths. Raises :class:`SceneError`."""
+    folder anchors relative mesh paths; ``overrides``: ``KEY=VALUE`` texts (overrides.py).
+    Raises :class:`SceneError`."""
     path = Path(path)
     file = str(path)
     loader = _SceneLoader(text, file)
@@ -147,17 +150,21 @@ def parse_scene(text: str, path: str | Path) -> Scene:
             file, loader.lines.get(()), "",
             f"the top level must be a mapping (camera:, meshes:, ...), got {_type_name(data)}",
         )
+    named = []
+    if overrides:
+        data, named = apply_overrides(data, overrides, file)
     try:
         scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
     except ValidationError as exc:
-        raise _to_scene_error(exc, file, loader.lines) from None
+        raise blame(_to_scene_error(exc, file, loader.lines), named, file) from None
     scene._source = path
     scene._lines = dict(loader.lines)
     return scene
 
 
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate the scene file at ``path``. Raises :class:`SceneError`."""
+def load_scene(path: str | Path, overrides=()) -> Scene:
+    """Read and validate the scene file at ``path`` (``overrides``: ``-D KEY=VALUE`` texts).
+    Raises :class:`SceneError`."""
     path = Path(path)
     try:
         if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
@@ -168,4 +175,4 @@ def load_scene(path: str | Path) -> Scene:
         raise SceneError(path, None, "", f"cannot read scene file: {exc.strerror or exc}") from None
     except UnicodeDecodeError as exc:
         raise SceneError(path, None, "", f"not UTF-8 text (byte {exc.start})") from None
-    return parse_scene(text, path)
+    return parse_scene(text, path, overrides)

@@ -1,0 +1,28 @@
+"""``mcpt merge A.exr B.exr ... -o OUT.exr``: renders of one scene with different seeds, combined
+into the image one render of the summed spp would give (mcpt/farm/merge.py)."""
+
+from __future__ import annotations
+
+import click
+
+from .group import main, reports_errors
+
+
+@main.command()
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("-o", "--output", "outputs", multiple=True, required=True,
+              help="Merged image (.exr, or .png for a preview); repeat for several.")
+@click.option("--exposure", type=float, default=0.0, show_default=True, help="PNG only: stops.")
+@reports_errors
+def merge(inputs, outputs, exposure):
+    """Merge EXR renders of the same scene (different seeds), weighted by their spp."""
+    from mcpt.farm.merge import merge as merge_images
+    from mcpt.output.image import check_output_path, write_image
+
+    for output in outputs:
+        check_output_path(output)
+    image, header = merge_images(list(inputs))
+    for output in outputs:
+        write_image(output, image, header, exposure)
+    click.echo(f"wrote {', '.join(outputs)}: {len(inputs)} renders, {header['mcpt:spp']} spp "
+               f"(seeds {header['mcpt:seeds']})", err=True)

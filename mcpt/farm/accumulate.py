@@ -1,0 +1,73 @@
+"""Adding up pass read-backs so that where a render stops does not change a single bit.
+
+The renderer (mcpt/gpu/render.py, ``Renderer.passes``) blends passes into an RGBA32F target and
+reads it back at every multiple of ``chunk`` passes, counted from pass 0. A float64 sum of those
+read-backs depends on the ORDER of the additions (floating point is not associative), so this
+module keeps one rule: ``complete`` is the float64 sum, in pass order starting from zeros, of the
+read-backs of whole chunks; passes after the last whole chunk stay a float32 ``partial`` exactly as
+the target held them. Then
+
+* a render that stops early (time budget, signal) and is resumed uploads ``partial`` back into the
+  target and carries on: the next read-back is bit-for-bit the one an uninterrupted render makes;
+* farm tasks that each render whole chunks return them, and the coordinator adds them in chunk
+  order: the same additions as one process;
+* the image at any point is ``complete + partial`` (one more addition, as the last, possibly short,
+  chunk of an uninterrupted render of that many passes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+CHUNK = 64  # passes per read-back (Renderer.render's default)
+
+
+@dataclass
+class Accumulator:
+    """Sums of passes ``0 .. done-1`` of one seed: ``complete`` (float64, whole chunks, added in
+    order) and ``partial`` (float32 target of the unfinished chunk, or None)."""
+
+    complete: np.ndarray
+    done: int = 0
+    partial: np.ndarray | None = None
+    chunk: int = CHUNK
+
+    @classmethod
+    def empty(cls, targets: int, height: int, width: int, chunk: int = CHUNK) -> Accumulator:
+        return cls(np.zeros((targets, height, width, 4), np.float64), 0, None, chunk)
+
+    @property
+    def whole(self) -> int:
+        """Passes in ``complete`` (a multiple of ``chunk``)."""
+        return self.done - (self.done % self.chunk)
+
+    def add(self, done: int, sums: np.ndarray) -> None:
+        """One read-back of ``Renderer.passes`` covering the passes up to ``done``."""
+        if done <= self.done:
+            raise ValueError(f"read-back at pass {done} after pass {self.done}")
+        if self.partial is not None:
+            # Renderer.passes continued from ``partial`` (carry), so ``sums`` already holds it.
+            self.partial = None
+        if done % self.chunk == 0:
+            self.complete += sums
+        else:
+            self.partial = np.array(sums, np.float32)
+        self.done = done
+
+    def add_chunk(self, first: int, sums: np.ndarray, rows: slice = slice(None)) -> None:
+        """A whole chunk starting at pass ``first`` (farm tasks), in order; ``rows``: its tile."""
+        if first != self.done or self.partial is not None:
+            raise ValueError(f"chunk at pass {first} added after pass {self.done}")
+        self.complete[:, rows] += sums
+        # Tiles of one chunk arrive one by one: the caller advances ``done`` (advance()).
+
+    def advance(self, done: int) -> None:
+        self.done = done
+
+    def totals(self) -> np.ndarray:
+        """float64 sums of all ``done`` passes: ``complete`` plus the unfinished chunk."""
+        if self.partial is None:
+            return self.complete.copy()
+        return self.complete + self.partial

@@ -1,0 +1,197 @@
+"""One render from start (or a checkpoint) to images, with a time budget, periodic checkpoints and
+stop signals: the loop behind ``mcpt render`` (the library's one-shot call is mcpt.api.render_scene).
+
+Passes come from ``Renderer.passes`` (one process) or from Dask tasks (mcpt/farm/cluster.py); both
+feed an :class:`Accumulator`, so where the render stops, resumes or runs changes no bit.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..api import metadata, prepare
+from ..errors import McptError
+from ..output.image import write_image
+from . import state as st
+from .accumulate import Accumulator
+from .signals import StopSignals
+
+
+class ResumeError(McptError, ValueError):
+    pass
+
+
+@dataclass
+class Options:
+    outputs: list
+    spp: int | None = None
+    bounces: int | None = None
+    seed: int | None = None
+    resolution: tuple | None = None
+    gl_backend: str | None = None
+    features_mode: str = "scene"
+    clamp: float | None = None
+    exposure: float = 0.0
+    time_budget: float | None = None      # seconds of wall time from ``started``
+    checkpoint: float | None = None       # seconds between checkpoints
+    resume: bool = False
+    overrides: tuple = ()                 # -D KEY=VALUE
+    workers: int | None = None
+    scheduler: str | None = None
+    client: object = None                 # a distributed.Client to use (tests, notebooks)
+    progress: object = None               # progress(done, total, passes_this_run, seconds)
+    started: float = field(default_factory=time.perf_counter)
+
+
+@dataclass
+class Outcome:
+    result: object                        # RenderResult of the passes done
+    meta: dict
+    spp_requested: int
+    interrupted: int | None = None        # the signal number, when one stopped the render
+    checkpoint: Path | None = None
+    resumed_from: int = 0
+    written: list = field(default_factory=list)
+    stopped_by: str | None = None         # "signal", "time" or None (all passes done)
+    farm: dict = field(default_factory=dict)  # cluster_seconds, workers, tasks (Dask renders)
+
+
+class Control:
+    """Asked after every pass: progress, and whether to stop (signal, time) or pause (checkpoint)."""
+
+    def __init__(self, opts: Options, signals: StopSignals, spp: int):
+        self.opts, self.signals, self.spp = opts, signals, spp
+        self.t_run = time.perf_counter()
+        self.last_checkpoint = self.t_run
+        self.passes_run = 0
+        self.stop: str | None = None
+
+    def tick(self, done: int, new_passes: int = 1) -> str | None:
+        """``done`` passes of the render exist; returns 'stop', 'checkpoint' or None."""
+        self.passes_run += new_passes
+        now = time.perf_counter()
+        if self.opts.progress is not None:
+            self.opts.progress(done, self.spp, self.passes_run, now - self.t_run)
+        per_pass = (now - self.t_run) / max(self.passes_run, 1)
+        if self.signals.stopped:
+            self.stop = "signal"
+        elif (self.opts.time_budget is not None and done < self.spp
+              and now - self.opts.started + per_pass > self.opts.time_budget):
+            # Stop before the pass that would end past the budget: ends within one pass of it.
+            self.stop = "time"
+        if self.stop:
+            return "stop"
+        if self.opts.checkpoint is not None and now - self.last_checkpoint >= self.opts.checkpoint:
+            return "checkpoint"
+        return None
+
+
+def header(meta: dict, record: dict, spp_requested: int) -> dict:
+    """EXR header keys: the render's metadata plus the record ``mcpt merge`` and resume compare."""
+    out = {**meta, **record, "spp_requested": spp_requested, "first_pass": 0}
+    return {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in out.items()}
+
+
+def run(scene_file, opts: Options, signals: StopSignals) -> Outcome:
+    from ..scene import load_scene
+
+    scene = load_scene(scene_file, overrides=opts.overrides) if opts.overrides else scene_file
+    p = prepare(scene, spp=opts.spp, bounces=opts.bounces, seed=opts.seed,
+                resolution=opts.resolution, gl_backend=opts.gl_backend,
+                features_mode=opts.features_mode, clamp=opts.clamp)
+    if hasattr(opts.progress, "pixels"):
+        opts.progress.pixels = p.scene.camera.width * p.scene.camera.height
+    try:
+        return _run(p, opts, signals)
+    finally:
+        p.renderer.release()
+
+
+def _run(p, opts: Options, signals: StopSignals) -> Outcome:
+    r = p.renderer
+    spp, seed = p.scene.render.spp, p.scene.render.seed
+    record = st.settings(p.scene, features_mode=opts.features_mode, clamp=opts.clamp)
+    state_file = st.state_path(opts.outputs[0])
+    acc = Accumulator.empty(len(r.targets), r.height, r.width)
+    if opts.resume:
+        acc, found = st.load(state_file)
+        why = st.mismatch(record, found)
+        if why:
+            raise ResumeError(f"{state_file}: cannot resume: {why}")
+        if acc.done > spp:
+            raise ResumeError(f"{state_file}: cannot resume: the checkpoint has {acc.done} passes, "
+                              f"more than the {spp} asked for")
+    resumed_from = acc.done
+    control = Control(opts, signals, spp)
+    timing = {"random": 0.0}
+    saved = []
+
+    def seconds():
+        return time.perf_counter() - control.t_run
+
+    def save_checkpoint():
+        with signals.writing():
+            st.save(state_file, acc, {**record, "spp_requested": spp})
+            _write(p, opts, acc, spp, record, seconds(), timing["random"], resumed_from)
+        saved.append(state_file)
+        control.last_checkpoint = time.perf_counter()
+
+    if opts.workers or opts.scheduler or opts.client is not None:
+        from .cluster import render_on_cluster
+
+        render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing,
+                          client=opts.client)
+    else:
+        while acc.done < spp and control.stop is None:
+            base, count, action = acc.done, 0, [None]
+
+            def after_pass():
+                nonlocal count
+                count += 1
+                action[0] = control.tick(base + count)
+                return action[0] is not None
+
+            for done, sums in r.passes(seed, acc.done, spp, carry=acc.partial, interrupt=after_pass):
+                acc.add(done, sums)
+            timing["random"] += r.random_seconds
+            if action[0] == "checkpoint":
+                save_checkpoint()
+    written = []
+    if control.stop == "signal":
+        if opts.checkpoint is not None and acc.done > resumed_from:
+            save_checkpoint()
+    elif opts.checkpoint is not None:
+        save_checkpoint()  # the final image, and the state that a longer render can resume
+        written = list(opts.outputs)
+    elif acc.done > 0:
+        with signals.writing():
+            written = _write(p, opts, acc, spp, record, seconds(), timing["random"], resumed_from)
+    result = _result(p, acc, seconds(), timing["random"])
+    farm = {k: v for k, v in timing.items() if k != "random"}
+    stopped = signals.signum if control.stop == "signal" else None  # after the last pass: done
+    return Outcome(result, _metadata(p, result, resumed_from), spp, stopped,
+                   saved[-1] if saved else None, resumed_from, written, control.stop, farm)
+
+
+def _metadata(p, result, resumed_from: int) -> dict:
+    """api.metadata, with paths/s over the passes THIS run drew (a resumed render's checkpoint
+    passes took no time here)."""
+    meta = metadata(p, result)
+    h, w, _ = result.image.shape
+    meta["paths_per_second"] = w * h * (result.spp - resumed_from) / max(result.render_seconds, 1e-12)
+    meta["resumed_from"] = resumed_from
+    return meta
+
+
+def _result(p, acc: Accumulator, seconds: float, random_seconds: float):
+    return p.renderer.result(acc.totals(), acc.done, p.scene.render.seed, seconds, random_seconds)
+
+
+def _write(p, opts, acc, spp, record, seconds, random_seconds, resumed_from) -> list:
+    result = _result(p, acc, seconds, random_seconds)
+    hdr = header(_metadata(p, result, resumed_from), record, spp)
+    for output in opts.outputs:
+        write_image(output, result.image, hdr, opts.exposure)
+    return list(opts.outputs)

@@ -1,0 +1,127 @@
+"""Checkpoint files: what a render needs to carry on bit for bit, written atomically.
+
+A state file (``<first output>.state.npz``, numpy's zip of arrays, no pickles) holds the float64
+sums of whole chunks, the float32 target of the unfinished chunk, the passes done and a JSON
+record of everything that decides the numbers: the seed, the bounces, the resolution, the compile
+options, and a hash of the scene *content* (the validated scene with every file it names replaced by
+the SHA-256 of its bytes, so moving the scene folder or another machine's path does not matter, but
+editing a mesh does). ``--resume`` refuses, naming the first difference, when any of them changed.
+The same record goes into the EXR header as ``mcpt:*`` keys, which is what ``mcpt merge`` compares.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import McptError
+from .accumulate import Accumulator
+
+FORMAT = 1
+
+
+class StateError(McptError, ValueError):
+    """A state file that is missing, unreadable, or from another scene or setting."""
+
+
+def _digest(path: Path, cache: dict) -> str:
+    if path not in cache:
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        cache[path] = h.hexdigest()
+    return cache[path]
+
+
+def _content(value, cache):
+    if isinstance(value, Path):
+        return "sha256:" + _digest(value, cache) if value.is_file() else f"missing:{value.name}"
+    if isinstance(value, dict):
+        return {str(k): _content(v, cache) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_content(v, cache) for v in value]
+    return value
+
+
+def scene_hash(scene) -> str:
+    """SHA-256 (16 hex digits) of what the scene draws, without the render settings (those are
+    compared one by one, so a refusal can name them) and without the name."""
+    data = scene.model_dump()
+    data.pop("render", None)
+    data.pop("name", None)
+    data["camera"] = {k: v for k, v in data["camera"].items() if k != "resolution"}
+    text = json.dumps(_content(data, {}), sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def settings(scene, *, features_mode: str = "scene", clamp: float | None = None) -> dict:
+    """Everything besides the spp that decides a render's numbers, by name."""
+    cam, rs = scene.camera, scene.render
+    return {"scene_hash": scene_hash(scene), "width": cam.width, "height": cam.height,
+            "bounces": rs.bounces, "seed": rs.seed, "features_mode": features_mode,
+            "clamp": None if clamp is None else float(clamp)}
+
+
+def mismatch(expected: dict, found: dict, keys=None, here: str = "this render",
+             there: str = "the checkpoint") -> str | None:
+    """'seed is 4 in this render but 3 in the checkpoint' for the first setting that differs."""
+    for k in keys or expected:
+        if str(expected.get(k)) != str(found.get(k)):
+            if k == "scene_hash":
+                return (f"the scene differs (geometry, materials, camera or a file it names; "
+                        f"hash {expected.get(k)} in {here}, {found.get(k)} in {there})")
+            return f"{k} is {expected.get(k)} in {here} but {found.get(k)} in {there}"
+    return None
+
+
+def state_path(output: str | Path) -> Path:
+    return Path(f"{output}.state.npz")
+
+
+def save(path: str | Path, acc: Accumulator, record: dict) -> None:
+    """Write the state atomically (temporary file renamed over ``path``; removed on any failure,
+    a signal included, so the previous checkpoint survives intact)."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    os.close(fd)
+    meta = {"format": FORMAT, "done": acc.done, "chunk": acc.chunk, **record}
+    arrays = {"complete": acc.complete, "meta": np.frombuffer(json.dumps(meta).encode(), np.uint8)}
+    if acc.partial is not None:
+        arrays["partial"] = acc.partial
+    try:
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+            f.flush()
+            os.fsync(f.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 is for the temporary name only
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def load(path: str | Path) -> tuple[Accumulator, dict]:
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(bytes(z["meta"]).decode())
+            complete = np.array(z["complete"], np.float64)
+            partial = np.array(z["partial"], np.float32) if "partial" in z.files else None
+    except FileNotFoundError:
+        raise StateError(f"{path}: no checkpoint to resume (render with --checkpoint SECONDS first)") from None
+    except (OSError, ValueError, KeyError) as exc:
+        raise StateError(f"{path}: not a readable mcpt checkpoint ({exc})") from None
+    if meta.get("format") != FORMAT:
+        raise StateError(f"{path}: checkpoint format {meta.get('format')} is not {FORMAT}")
+    acc = Accumulator(complete, int(meta["done"]), partial, int(meta["chunk"]))
+    return acc, meta

@@ -1,0 +1,81 @@
+"""Renders on Dask distributed (issue #11): a 2-worker LocalCluster gives the one-process image
+bit for bit, also when a worker process is killed in the middle of the render.
+
+One LocalCluster (two spawned single-threaded workers, LP_NUM_THREADS=1) serves the module; the
+scene is tests/test_farm.py's lit floor and box at 12x10.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import numpy as np
+import pytest
+
+pytest.importorskip("distributed")
+
+from mcpt.farm.session import Options, run  # noqa: E402
+from mcpt.farm.signals import StopSignals  # noqa: E402
+
+from .test_farm import folder, same_bits  # noqa: E402,F401  (fixture)
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client
+
+    from mcpt.farm.cluster import local_cluster
+
+    cluster = local_cluster(2, lp_threads=1)
+    c = Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def render(folder, out, spp, client=None, progress=None, seed=7):
+    opts = Options([str(folder / out)], spp=spp, seed=seed, client=client, progress=progress)
+    outcome = run(folder / "scene.yaml", opts, StopSignals())
+    assert outcome.result.spp == spp
+    return outcome.result.image
+
+
+def test_two_workers_equal_one_process_bit_for_bit(folder, client):
+    spp = 64 * 3 + 19  # three whole chunks and a short one
+    one = render(folder, "one.exr", spp)
+    farm = render(folder, "farm.exr", spp, client=client)
+    assert same_bits(one, farm)
+    assert len(client.scheduler_info()["workers"]) == 2
+
+
+def test_a_killed_worker_costs_time_not_pixels(folder, client):
+    """Kill one worker process (SIGKILL) after the first chunk arrived: Dask re-runs its tasks
+    elsewhere (the nanny restarts it) and the image is still the one-process image."""
+    spp = 64 * 8
+    killed = []
+
+    def kill_one(done, total, run_, seconds):
+        if not killed:
+            pids = client.run(os.getpid)
+            victim = sorted(pids.values())[0]
+            os.kill(victim, signal.SIGKILL)
+            killed.append(victim)
+
+    farm = render(folder, "farm.exr", spp, client=client, progress=kill_one, seed=11)
+    assert killed
+    client.wait_for_workers(2, timeout=60)
+    assert killed[0] not in client.run(os.getpid).values()
+    one = render(folder, "one.exr", spp, seed=11)
+    assert same_bits(one, farm)
+
+
+def test_farm_resumes_a_one_process_checkpoint_bit_for_bit(folder, client):
+    """A checkpoint that ended inside a chunk (100 passes), resumed on the farm to 200: the first
+    task carries the unfinished chunk; the image equals one uninterrupted 200-pass render."""
+    opts = Options([str(folder / "c.exr")], spp=100, checkpoint=1e6)
+    assert run(folder / "scene.yaml", opts, StopSignals()).checkpoint is not None
+    opts = Options([str(folder / "c.exr")], spp=200, resume=True, client=client)
+    out = run(folder / "scene.yaml", opts, StopSignals())
+    assert out.resumed_from == 100 and out.result.spp == 200
+    assert same_bits(out.result.image, render(folder, "ref.exr", 200))
