@@ -61,6 +61,9 @@ MAX_STACK = 64
 LEAF_FLAG = 0x80000000
 #: Triangles per leaf the GPU traversal handles (glsl/bvh.glsl BVH_MAX_LEAF, unrolled there).
 GPU_MAX_LEAF = 4
+#: glsl/bvh.glsl item references: texel address in the low 28 bits, leaf count above.
+GPU_COUNT_SHIFT = 28
+GPU_ADDRESS_LIMIT = 1 << GPU_COUNT_SHIFT
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,40 +121,70 @@ class BVH:
         """(M,) int64 triangle count of each leaf, 0 for interior nodes."""
         return np.where(self.is_leaf, self.nodes[:, 7] & ~np.uint32(LEAF_FLAG), 0).astype(np.int64)
 
-    def gpu_nodes(self) -> np.ndarray:
-        """The layout glsl/bvh.glsl traverses: ``(I * 4, 4)`` uint32, 4 texels per INTERIOR node.
+    def gpu_nodes(self, tris_reordered: np.ndarray) -> np.ndarray:
+        """The buffer glsl/bvh.glsl traverses: ``(4 I + 3 F + 1, 4)`` uint32 RGBA32UI texels.
 
-        Each interior node carries both children's boxes, so the shader tests the two boxes it
-        may enter from the parent's four texels, visits the nearer child first and never fetches
-        a node whose box the ray misses (leaves are not stored as nodes at all)::
+        Interior nodes first (node k at texel 4k, the root at 0), each holding both children's
+        boxes, so the shader tests the two boxes it may enter from one record and never fetches
+        a record whose box the ray misses::
 
-            texel 0 = (left.bmin bits,  left.a)    texel 1 = (left.bmax bits,  left.b)
-            texel 2 = (right.bmin bits, right.a)   texel 3 = (right.bmax bits, right.b)
+            texel 0 = (left.bmin bits,  left.ref)    texel 1 = (left.bmax bits,  0)
+            texel 2 = (right.bmin bits, right.ref)   texel 3 = (right.bmax bits, 0)
 
-        A child with ``b == 0`` is interior and ``a`` is its index here; otherwise ``b`` is
-        ``count | LEAF_FLAG`` and ``a`` the first triangle. A tree that is a single leaf becomes
-        one node whose left child is that leaf and whose right child is an empty leaf.
+        then one record per triangle in BVH order (triangle j at texel 4I + 3j)::
+
+            (v0 bits, j), (v1 bits, 0), (v2 bits, 0)
+
+        and one pad texel (the shader always reads four texels). A child reference is the
+        texel address of its record, plus ``count << 28`` for a leaf of ``count`` consecutive
+        triangle records. Nodes and triangles share the buffer so one traversal step reads a node
+        OR a triangle with the same four fetches (issue #14). A tree that is a single leaf becomes
+        one node whose right child is an empty box no ray enters.
+
+        Args:
+            tris_reordered: (F, 3, 3) float32 triangles in BVH order (``tris[bvh.order]``), in the
+                frame the shader traces in.
         """
+        tris = np.ascontiguousarray(tris_reordered, dtype=np.float32)
+        n_tris = self.num_triangles
+        if tris.shape != (n_tris, 3, 3):
+            raise ValueError(f"tris_reordered must have shape ({n_tris}, 3, 3), got {tris.shape}")
         nodes, leaf = self.nodes, self.is_leaf
-        if self.leaf_count.max(initial=0) > GPU_MAX_LEAF:
-            raise ValueError(f"leaves of up to {self.leaf_count.max()} triangles; the GPU "
+        counts = self.leaf_count
+        if counts.max(initial=0) > GPU_MAX_LEAF:
+            raise ValueError(f"leaves of up to {counts.max()} triangles; the GPU "
                              f"traversal handles {GPU_MAX_LEAF} (build with max_leaf <= {GPU_MAX_LEAF})")
         interior = np.flatnonzero(~leaf)
-        if interior.size == 0:
-            root = nodes[0]
-            empty = root.copy()
-            empty[3], empty[7] = 0, LEAF_FLAG
-            return np.stack([root[:4], root[4:], empty[:4], empty[4:]]).astype(np.uint32)
-        new_index = np.zeros(len(nodes), np.uint32)
-        new_index[interior] = np.arange(interior.size, dtype=np.uint32)
-        out = np.empty((interior.size, 4, 4), np.uint32)
-        for slot, child in ((0, interior + 1), (2, nodes[interior, 3].astype(np.int64))):
+        n_records = max(interior.size, 1)
+        tri_base = 4 * n_records
+        total = tri_base + 3 * n_tris + 1
+        if total > GPU_ADDRESS_LIMIT:
+            raise ValueError(f"{total} texels do not fit the 28-bit references of the traversal")
+        out = np.zeros((total, 4), np.uint32)
+        tri_texels = out[tri_base:tri_base + 3 * n_tris].reshape(n_tris, 3, 4)
+        tri_texels[:, :, :3] = tris.view(np.uint32)
+        tri_texels[:, 0, 3] = np.arange(n_tris, dtype=np.uint32)
+
+        def ref(child: np.ndarray) -> np.ndarray:
             is_leaf = leaf[child]
-            out[:, slot, :3] = nodes[child, 0:3]
-            out[:, slot + 1, :3] = nodes[child, 4:7]
-            out[:, slot, 3] = np.where(is_leaf, nodes[child, 3], new_index[child])
-            out[:, slot + 1, 3] = np.where(is_leaf, nodes[child, 7], 0)
-        return out.reshape(-1, 4)
+            leaf_ref = (tri_base + 3 * nodes[child, 3].astype(np.int64)) | (counts[child] << GPU_COUNT_SHIFT)
+            return np.where(is_leaf, leaf_ref, 4 * new_index[child]).astype(np.uint32)
+
+        recs = out[:tri_base].reshape(n_records, 4, 4)
+        if interior.size == 0:
+            recs[0, 0, :3], recs[0, 1, :3] = nodes[0, 0:3], nodes[0, 4:7]
+            recs[0, 0, 3] = tri_base | (n_tris << GPU_COUNT_SHIFT) if n_tris else 0
+            recs[0, 2, :3] = np.full(3, np.inf, np.float32).view(np.uint32)   # empty box
+            recs[0, 3, :3] = np.full(3, -np.inf, np.float32).view(np.uint32)
+            recs[0, 2, 3] = recs[0, 0, 3]
+            return out
+        new_index = np.zeros(len(nodes), np.int64)
+        new_index[interior] = np.arange(interior.size)
+        for slot, child in ((0, interior + 1), (2, nodes[interior, 3].astype(np.int64))):
+            recs[:, slot, :3] = nodes[child, 0:3]
+            recs[:, slot + 1, :3] = nodes[child, 4:7]
+            recs[:, slot, 3] = ref(child)
+        return out
 
     def stats(self) -> dict:
         """Summary numbers for logs, `mcpt info` and benchmarks."""

@@ -75,7 +75,7 @@ class World:
                    material_light_pdf_area(self.materials.emission, self.lights.total_power),
                    texels=features.material_texels)}
         if features.bvh:
-            out["nodes"] = self.bvh.gpu_nodes()
+            out["nodes"] = self.bvh.gpu_nodes(self.tris)
         if features.nee:
             out["lights"] = self.lights.pack()
         # The uber-shader (--features all) declares these buffers for any scene, but reads them
