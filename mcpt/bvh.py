@@ -204,7 +204,7 @@ class BVH:
 LARGE_TRIANGLE_FACTOR = 8.0
 
 
-def build_bvh(tri_vertices: np.ndarray, max_leaf: int = 4) -> BVH:
+def build_bvh(tri_vertices: np.ndarray, max_leaf: int = 1) -> BVH:
     """Build a median-split BVH over triangles, large triangles in their own subtree.
 
     Same arguments, result and errors as :func:`build_median_bvh`.
