@@ -61,6 +61,12 @@ MAX_STACK = 64
 LEAF_FLAG = 0x80000000
 #: Triangles per leaf the GPU traversal handles (glsl/bvh.glsl BVH_MAX_LEAF, unrolled there).
 GPU_MAX_LEAF = 4
+#: Leaf-size cap of the default build (SAH may stop earlier only below it).
+DEFAULT_MAX_LEAF = 4
+#: SAH prices in loop iterations of glsl/bvh.glsl: a node step and a triangle test are one
+#: iteration each (same four fetches), so visiting a node costs as much as testing a triangle.
+SAH_STEP_COST = 1.0
+SAH_TRI_COST = 1.0
 #: glsl/bvh.glsl item references: texel address in the low 28 bits, leaf count above.
 GPU_COUNT_SHIFT = 28
 GPU_ADDRESS_LIMIT = 1 << GPU_COUNT_SHIFT
@@ -197,14 +203,26 @@ class BVH:
             "mean_leaf_size": float(counts.mean()) if counts.size else 0.0,
             "build_seconds": self.build_seconds,
             "triangles": self.num_triangles,
+            "sah_cost": self.sah_cost(),
         }
+
+    def sah_cost(self) -> float:
+        """Expected loop iterations of a ray that enters the root box, by the surface area
+        heuristic (MacDonald & Booth 1990): each node is entered with probability area(node) /
+        area(root) and then costs SAH_STEP_COST (interior) or count * SAH_TRI_COST (leaf)."""
+        e = np.maximum(self.bounds_max.astype(np.float64) - self.bounds_min, 0.0)
+        area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+        if not np.isfinite(area).all() or area[0] <= 0.0:
+            return float("nan")
+        price = np.where(self.is_leaf, self.leaf_count * SAH_TRI_COST, SAH_STEP_COST)
+        return float((area * price).sum() / area[0])
 
 
 #: A triangle whose box diagonal exceeds this multiple of the median goes to the large subtree.
 LARGE_TRIANGLE_FACTOR = 8.0
 
 
-def build_bvh(tri_vertices: np.ndarray, max_leaf: int = 1) -> BVH:
+def build_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF, sah: bool = True) -> BVH:
     """Build a median-split BVH over triangles, large triangles in their own subtree.
 
     Same arguments, result and errors as :func:`build_median_bvh`.
@@ -216,11 +234,11 @@ def build_bvh(tri_vertices: np.ndarray, max_leaf: int = 1) -> BVH:
         large = diag > LARGE_TRIANGLE_FACTOR * np.median(diag)
         if large.any() and not large.all():
             small_ids, large_ids = np.flatnonzero(~large), np.flatnonzero(large)
-            joined = _join(build_median_bvh(tris[small_ids], max_leaf), small_ids,
-                           build_median_bvh(tris[large_ids], max_leaf), large_ids)
+            joined = _join(build_median_bvh(tris[small_ids], max_leaf, sah), small_ids,
+                           build_median_bvh(tris[large_ids], max_leaf, sah), large_ids)
             return BVH(joined.nodes, joined.order, joined.depth, max_leaf,
                        time.perf_counter() - t_start)
-    return build_median_bvh(tri_vertices, max_leaf)
+    return build_median_bvh(tri_vertices, max_leaf, sah)
 
 
 def _join(a: BVH, a_ids: np.ndarray, b: BVH, b_ids: np.ndarray) -> BVH:
@@ -244,13 +262,17 @@ def _join(a: BVH, a_ids: np.ndarray, b: BVH, b_ids: np.ndarray) -> BVH:
     return BVH(nodes, order, depth, a.max_leaf, a.build_seconds + b.build_seconds)
 
 
-def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = 4) -> BVH:
+def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF, sah: bool = True) -> BVH:
     """Build a pure median-split BVH over triangles.
 
     Args:
         tri_vertices: (F, 3, 3) corner positions (triangle, corner, xyz) in scene units,
             float32 or float64; must be finite. F = 0 gives a single empty leaf that no ray hits.
         max_leaf: maximum triangles per leaf (>= 1).
+        sah: choose each node's split among the three axes' object medians by SAH, and keep
+            nodes of up to ``max_leaf`` triangles as leaves only where SAH says a leaf is
+            cheaper (leaves may then be smaller than the cap). False: the longest centroid
+            axis's median, split down to ``max_leaf``.
 
     Returns:
         The flattened `BVH` (see the module docstring for the node layout).
@@ -283,7 +305,12 @@ def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = 4) -> BVH:
         return BVH(nodes, np.zeros(0, np.int64), 1, max_leaf, time.perf_counter() - t_start)
 
     centroids = (tris[:, 0] + tris[:, 1] + tris[:, 2]) / 3.0  # (F, 3); 4x faster than mean(axis=1)
-    levels, order = _split_levels(centroids, max_leaf)
+    boxes = None
+    if sah:
+        boxes = np.empty((n_tris, 6), np.float32)
+        boxes[:, :3] = tris.min(axis=1)
+        boxes[:, 3:] = -tris.max(axis=1)
+    levels, order = _split_levels(centroids, boxes, max_leaf)
     nodes = _flatten(levels, order, tris, n_tris)
     depth = len(levels)
     if depth + 2 > MAX_STACK:
@@ -306,54 +333,83 @@ class _Level:
     axis: np.ndarray  # split axis, -1 for a leaf
 
 
-def _split_levels(centroids: np.ndarray, max_leaf: int) -> tuple[list[_Level], np.ndarray]:
-    """Split nodes level by level; returns the levels and the final triangle order."""
+def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
+                  max_leaf: int) -> tuple[list[_Level], np.ndarray]:
+    """Split nodes level by level; returns the levels and the final triangle order.
+
+    ``boxes`` (F, 6) float32 triangle boxes as (lo, -hi), or None: split every node at the object
+    median of its longest centroid axis (the plain median tree). With boxes, the three axes'
+    object medians are scored by SAH and the cheapest taken; a node of at most ``max_leaf``
+    triangles stays a leaf when SAH prices the leaf at most at its best split. Larger nodes
+    always split, so leaves respect the cap either way.
+    """
     n_tris = len(centroids)
     # lists[k] = triangle ids grouped by node, sorted by centroid k inside each node. Stable
-    # sorts keep ties in id order, which makes the build deterministic.
-    lists = np.stack([np.argsort(centroids[:, k], kind="stable") for k in range(3)])
+    # sorts keep ties in id order, which makes the build deterministic. int32 halves the memory
+    # traffic of the per-level gathers and scatters.
+    lists = np.stack([np.argsort(centroids[:, k], kind="stable").astype(np.int32) for k in range(3)])
     flat_lists = lists.reshape(-1)  # view: flat_lists[k * F + i] is lists[k, i]
     goes_right = np.zeros(n_tris, dtype=bool)  # scratch, only read where just written
+    cent32 = [np.ascontiguousarray(centroids[:, k]) for k in range(3)]
 
     levels: list[_Level] = []
     start = np.zeros(1, np.int64)
     count = np.array([n_tris], np.int64)
     first_id = 0
     while start.size:
-        split = count > max_leaf
-        n_split = int(split.sum())
-        next_id = first_id + start.size
-        left = np.full(start.size, -1, np.int64)
-        left[split] = next_id + 2 * np.arange(n_split)
-        axis = np.full(start.size, -1, np.int64)
-        levels.append(_Level(first_id, start, count, left, axis))
-        if n_split == 0:
-            break
-
+        split = count > (1 if boxes is not None else max_leaf)
         s, c = start[split], count[split]
+        n_split = s.size
+        if n_split == 0:
+            levels.append(_Level(first_id, start, count, np.full(start.size, -1, np.int64),
+                                 np.full(start.size, -1, np.int64)))
+            break
         last = s + c - 1
-        # Each list is sorted inside the node, so centroid bounds are its first/last entries.
-        extent = np.stack(
-            [centroids[lists[k, last], k] - centroids[lists[k, s], k] for k in range(3)], axis=1
-        )
-        node_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
-        axis[split] = node_axis
         mid = s + c // 2  # object median: the left child gets floor(c / 2) triangles
 
         # Positions of all triangles of the splitting nodes, as one flat array.
         seg = np.repeat(np.arange(n_split), c)
         seg_offset = np.cumsum(c) - c  # where each node starts inside `pos`
         pos = np.arange(seg.size) + np.repeat(s - seg_offset, c)
-        seg_start, seg_mid = s[seg], mid[seg]
 
+        if boxes is None:
+            # Each list is sorted inside the node, so centroid bounds are its first/last entries.
+            extent = np.stack([cent32[k][lists[k, last]] - cent32[k][lists[k, s]] for k in range(3)], axis=1)
+            node_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
+        else:
+            node_axis, keep_leaf = _sah_choice(lists, pos, seg_offset, c, boxes, max_leaf)
+            if keep_leaf.any():
+                # Nodes SAH keeps as leaves drop out of this level's split.
+                idx = np.flatnonzero(split)
+                split[idx[keep_leaf]] = False
+                go = ~keep_leaf
+                s, c, last, mid, node_axis = s[go], c[go], last[go], mid[go], node_axis[go]
+                n_split = s.size
+                seg_keep = np.repeat(go, count[idx])
+                seg_offset = np.cumsum(c) - c
+                pos = pos[seg_keep]
+                seg = np.repeat(np.arange(n_split), c)
+        next_id = first_id + start.size
+        left = np.full(start.size, -1, np.int64)
+        left[split] = next_id + 2 * np.arange(n_split)
+        axis = np.full(start.size, -1, np.int64)
+        axis[split] = node_axis
+        levels.append(_Level(first_id, start, count, left, axis))
+        if n_split == 0:
+            break
+
+        seg_start, seg_mid = s[seg], mid[seg]
         # Side of every triangle: the upper half of its node's list on the node's split axis.
         # (Flat indices: 1-D fancy indexing is much faster than lists[axis, pos].)
         goes_right[flat_lists[node_axis[seg] * n_tris + pos]] = pos >= seg_mid
 
         # Stable partition of every list inside every node: left triangles keep their order
-        # from the node start, right ones from the median.
+        # from the node start, right ones from the median. The split axis's own list is already
+        # partitioned (its lower half is the left child), so only the other two move.
         pos_in_node = pos - seg_start
         for k in range(3):
+            if (node_axis == k).all():
+                continue
             ids = lists[k][pos]
             is_left = ~goes_right[ids]
             n_left_incl = np.cumsum(is_left)
@@ -366,7 +422,36 @@ def _split_levels(centroids: np.ndarray, max_leaf: int) -> tuple[list[_Level], n
         count = np.stack([c // 2, c - c // 2], axis=1).ravel()
         first_id = next_id
     # Leaves never move once made, so every list now holds the same leaf-ordered permutation.
-    return levels, lists[0]
+    return levels, lists[0].astype(np.int64)
+
+
+def _half_areas(m: np.ndarray) -> np.ndarray:
+    """Half surface areas of (n, 6) boxes stored as (lo, -hi)."""
+    e = np.maximum(-m[:, 3:] - m[:, :3], 0.0)
+    return e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+
+
+def _sah_choice(lists, pos, seg_offset, c, boxes, max_leaf):
+    """SAH cost of each splitting node's three object-median splits (Goldsmith & Salmon 1987,
+    MacDonald & Booth 1990): C_STEP + (A_L n_L + A_R n_R) / A C_TRI, children priced as leaves.
+    Returns the cheapest axis per node and which nodes (count <= max_leaf) SAH keeps as leaves."""
+    n_left = c // 2
+    bounds = np.stack([seg_offset, seg_offset + n_left], axis=1).ravel()
+    cost = np.empty((3, c.size))
+    parent = None
+    for k in range(3):
+        m = np.minimum.reduceat(boxes[lists[k][pos]], bounds, axis=0)  # (2n, 6): left, right
+        a = _half_areas(m).reshape(-1, 2)
+        if parent is None:
+            parent = _half_areas(np.minimum(m[0::2], m[1::2]))
+        cost[k] = a[:, 0] * n_left + a[:, 1] * (c - n_left)
+    node_axis = np.argmin(cost, axis=0)
+    best = cost[node_axis, np.arange(c.size)]
+    flat = parent <= 0.0   # a point or a segment: any split, never a forced leaf
+    with np.errstate(divide="ignore", invalid="ignore"):
+        split_cost = SAH_STEP_COST + np.where(flat, 0.0, best / np.where(flat, 1.0, parent)) * SAH_TRI_COST
+    keep_leaf = (c <= max_leaf) & (c * SAH_TRI_COST <= split_cost) & ~flat
+    return node_axis, keep_leaf
 
 
 def _round_out(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -64,6 +64,7 @@ class Features:
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
+    counters: bool = False          # debug: count traversal work per ray (mcpt/counters.py)
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
@@ -126,6 +127,7 @@ class Features:
             "MCPT_CLAMP": b(self.clamp),
             "MCPT_VARIANCE": b(self.variance),
             "MCPT_LOOP_LIMIT": self.loop_limit,
+            "MCPT_COUNTERS": b(self.counters),
         }
 
     def preamble(self) -> str:
@@ -142,7 +144,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False,
-           loop_limit: int = 0) -> Features:
+           loop_limit: int = 0, counters: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
@@ -167,4 +169,5 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         clamp=clamp,
         variance=variance,
         loop_limit=loop_limit,
+        counters=counters,
     )
