@@ -1,0 +1,118 @@
+"""The SAH-chosen median tree (mcpt/bvh.py), its GPU buffer, and the traversal counters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mcpt.bvh import (GPU_COUNT_SHIFT, SAH_STEP_COST, SAH_TRI_COST, build_bvh,
+                      bvh_closest_hit, brute_force_closest_hit)
+from mcpt.mesh import load_mesh, merge_meshes
+
+from .conftest import ROOT, shared_path
+from .test_bvh import check_invariants, random_triangles
+
+
+def _meshes():
+    rng = np.random.default_rng(7)
+    stretched = random_triangles(rng, 3000)
+    stretched[:, :, 1] *= 10.0
+    slivers = rng.random((2000, 1, 3)) + np.array([[0, 0, 0], [0.3, 0, 0], [0, 0.001, 0]])
+    bunny = load_mesh(shared_path("models", "stanford-bunny.obj")).triangles()
+    cornell = merge_meshes([(load_mesh(p), None) for p in sorted(shared_path("scenes-ref", "cornell").glob("*.obj"))])
+    box_and_bunny = np.concatenate([cornell.triangles(), bunny * 7.0])
+    return {"random": random_triangles(rng, 5000), "stretched": stretched, "slivers": slivers,
+            "bunny": bunny, "cornell+bunny": box_and_bunny}
+
+
+MESHES = _meshes()
+
+
+@pytest.mark.parametrize("name", sorted(MESHES))
+@pytest.mark.parametrize("max_leaf", [1, 4])
+def test_sah_cost_never_worse_than_longest_axis_median(name, max_leaf):
+    tris = MESHES[name]
+    sah = build_bvh(tris, max_leaf=max_leaf)
+    longest = build_bvh(tris, max_leaf=max_leaf, sah=False)
+    longest_1 = build_bvh(tris, max_leaf=1, sah=False)
+    assert sah.sah_cost() <= longest.sah_cost() * (1 + 1e-9)
+    assert sah.sah_cost() <= longest_1.sah_cost() * (1 + 1e-9)
+    check_invariants(sah, tris, max_leaf)  # every triangle in exactly one leaf, leaves <= cap
+
+
+def test_sah_improves_the_bunny_by_a_real_margin():
+    bunny = MESHES["bunny"]
+    assert build_bvh(bunny).sah_cost() < 0.93 * build_bvh(bunny, max_leaf=1, sah=False).sah_cost()
+
+
+def test_sah_keeps_a_quad_as_one_leaf_and_splits_distant_triangles():
+    quad = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    # Same box for both: a leaf costs 2 tests, a split 1 step + 2 tests.
+    b = build_bvh(quad, max_leaf=4)
+    assert b.num_nodes == 1 and b.leaf_count[0] == 2
+    assert build_bvh(quad, max_leaf=1).leaf_count.max() == 1  # the cap wins over SAH
+    # Two tiny triangles far apart: a split enters at most one of two tiny boxes.
+    far = np.concatenate([quad[:1] * 1e-3, quad[:1] * 1e-3 + 10.0])
+    b = build_bvh(far, max_leaf=4)
+    assert b.num_nodes == 3 and b.leaf_count.max() == 1
+
+
+def test_sah_cost_by_hand():
+    # Root box 1 x 1 x 1 (half area 3) over two unit-size leaves of one triangle each.
+    tris = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 0, 1], [0, 1, 1]]], float)
+    b = build_bvh(tris, max_leaf=1)
+    assert b.num_nodes == 3
+    # Each leaf box is 1 x 1 x 0: half area 1. Cost = step + 2 * (1 / 3) * tri.
+    assert b.sah_cost() == pytest.approx(SAH_STEP_COST + 2.0 / 3.0 * SAH_TRI_COST, rel=1e-6)
+
+
+@pytest.mark.parametrize("name", ["slivers", "cornell+bunny"])
+def test_sah_tree_hits_match_brute_force(name):
+    tris = MESHES[name]
+    rng = np.random.default_rng(3)
+    lo, hi = tris.min(axis=(0, 1)), tris.max(axis=(0, 1))
+    o = lo + rng.random((1500, 3)) * (hi - lo)
+    d = rng.standard_normal((1500, 3))
+    bvh = build_bvh(tris)
+    t_ref, i_ref = brute_force_closest_hit(tris, o, d)
+    t, i = bvh_closest_hit(bvh, tris[bvh.order], o, d)
+    assert np.array_equal(np.where(i >= 0, bvh.order[np.maximum(i, 0)], -1), i_ref)
+    np.testing.assert_array_equal(t, t_ref)
+
+
+def test_gpu_buffer_references_every_triangle_once():
+    tris = MESHES["random"].astype(np.float32)
+    bvh = build_bvh(tris)
+    tr = tris[bvh.order]
+    buf = bvh.gpu_nodes(tr)
+    n_int = int((~bvh.is_leaf).sum())
+    tri_base = 4 * n_int
+    assert buf.shape == (tri_base + 3 * len(tris) + 1, 4)
+    # Triangle records: the vertices' bits and the triangle's index.
+    recs = buf[tri_base:tri_base + 3 * len(tris)].reshape(-1, 3, 4)
+    assert np.array_equal(recs[:, :, :3].view(np.float32), tr)
+    assert np.array_equal(recs[:, 0, 3], np.arange(len(tris)))
+    # Walk the references: every triangle is reached exactly once.
+    refs = buf[:tri_base].reshape(n_int, 4, 4)[:, [0, 2], 3].ravel().astype(np.int64)
+    count = refs >> GPU_COUNT_SHIFT
+    addr = refs & ((1 << GPU_COUNT_SHIFT) - 1)
+    nodes = addr[count == 0]
+    assert np.array_equal(np.sort(nodes), 4 * np.arange(1, n_int))  # each non-root node once
+    first = (addr[count > 0] - tri_base) // 3
+    covered = np.concatenate([f + np.arange(c) for f, c in zip(first, count[count > 0])])
+    assert np.array_equal(np.sort(covered), np.arange(len(tris)))
+
+
+def test_counters_are_compiled_out_by_default_and_add_up(gl):
+    from mcpt.counters import measure
+    from mcpt.shader import Source
+
+    from mcpt.features import Features
+    plain = Source("pathtrace.frag", Features(bounces=2).preamble()).text
+    assert "atomicAdd" not in plain
+    m = measure(ROOT / "scenes" / "bunny-metal.yaml", resolution=(32, 32), bounces=2)
+    assert m["bvh"] and m["rays"] >= 32 * 32 and 0 < m["shadow_rays"] < m["rays"]
+    # One loop iteration is one node step or one triangle test, each reading four texels.
+    assert m["iterations_per_ray"] == pytest.approx(m["node_steps_per_ray"] + m["triangle_tests_per_ray"])
+    assert m["fetches_per_ray"] == pytest.approx(4 * m["iterations_per_ray"])
+    assert 1.0 <= m["node_steps_per_ray"] < 60.0
