@@ -24,6 +24,7 @@ import tarfile
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from . import scenes as bench_scenes
@@ -149,7 +150,7 @@ def main(argv=None) -> int:
             print(f"{name:12s} A({args.base}) {pps['A'] / 1e6:.3f} M/s  B(worktree) {pps['B'] / 1e6:.3f} M/s"
                   f"  B/A {res['ratio_B_over_A']:.2f}  rounds "
                   + " ".join(f"{x:.2f}" for x in res["per_round_ratio"])
-                  + f"  same image mean: {res['same_mean']}", flush=True)
+                  + f"  image mean A {np.mean(res['mean']['A']):.6f} B {np.mean(res['mean']['B']):.6f}", flush=True)
     return 0
 
 
