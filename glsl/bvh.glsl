@@ -29,7 +29,8 @@ uint g_iter = 0u, g_fetch = 0u, g_node = 0u, g_tri = 0u;
 // Slab test. Zero direction components are replaced by a tiny value upstream (safe_inv) so no
 // 0 * inf = NaN appears; the far distance is widened by 2 gamma(3) (Ize 2013, "Robust BVH Ray
 // Traversal") so rounding never misses a box the ray really enters.
-bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax, out float tnear) {
+// par = step(1e29, |inv|) * 3e38, per ray (see the comment below).
+bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, vec3 par, float tmax, out float tnear) {
     vec3 t0 = (bmin - o) * inv;
     vec3 t1 = (bmax - o) * inv;
     vec3 tsm = min(t0, t1);
@@ -39,7 +40,7 @@ bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax, out float tnear
     // ray running inside a box face (flat boxes of axis-aligned walls) missed the box (issue #6,
     // case watertight-flat-grid-axis-rays). Such a ray stays in the slab for every t when its
     // origin is inside it, bounds included: push the slab's far distance out of reach.
-    tbg += step(1e29, abs(inv)) * step(bmin, o) * step(o, bmax) * 3e38;
+    tbg += par * step(bmin, o) * step(o, bmax);
     float tn = max(max(tsm.x, tsm.y), max(tsm.z, 0.0));
     float tf = min(min(tbg.x, tbg.y), min(tbg.z, tmax)) * 1.0000004;
     tnear = tn;
@@ -81,6 +82,7 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
     bool found = false;
 #if MCPT_BVH
     vec3 inv = safe_inv(r.d);
+    vec3 par = step(1e29, abs(inv)) * 3e38;  // slabs the ray runs parallel to (box_hit)
     uint stack[BVH_STACK];
     int sp = 0;
     uint cur = 0u;  // the root node
@@ -109,8 +111,8 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
             // Node record: both children's boxes and references.
             BVH_COUNT_NODE();
             float tl, tr;
-            bool hl = box_hit(uintBitsToFloat(x0.xyz), uintBitsToFloat(x1.xyz), r.o, inv, h.t, tl);
-            bool hr = box_hit(uintBitsToFloat(x2.xyz), uintBitsToFloat(x3.xyz), r.o, inv, h.t, tr);
+            bool hl = box_hit(uintBitsToFloat(x0.xyz), uintBitsToFloat(x1.xyz), r.o, inv, par, h.t, tl);
+            bool hr = box_hit(uintBitsToFloat(x2.xyz), uintBitsToFloat(x3.xyz), r.o, inv, par, h.t, tr);
             bool left_first = tl <= tr;
             uint near = left_first ? x0.w : x2.w;
             uint far = left_first ? x2.w : x0.w;
