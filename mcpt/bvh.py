@@ -67,6 +67,11 @@ DEFAULT_MAX_LEAF = 4
 #: iteration each (same four fetches), so visiting a node costs as much as testing a triangle.
 SAH_STEP_COST = 1.0
 SAH_TRI_COST = 1.0
+#: Above this many triangles the build takes the longest axis's median without pricing splits:
+#: SAH pricing keeps six box rows per list moving with the partition and roughly doubles the
+#: numpy build (measured, bench/bvh_build.py: 10^6 random triangles 2.0 s -> 5.1 s CPU on the
+#: shared 2-core machine), and the 10^6-triangle build must stay fast (issue #14).
+SAH_MAX_TRIANGLES = 1 << 18
 #: glsl/bvh.glsl item references: texel address in the low 28 bits, leaf count above.
 GPU_COUNT_SHIFT = 28
 GPU_ADDRESS_LIMIT = 1 << GPU_COUNT_SHIFT
@@ -271,8 +276,9 @@ def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF,
         max_leaf: maximum triangles per leaf (>= 1).
         sah: choose each node's split among the three axes' object medians by SAH, and keep
             nodes of up to ``max_leaf`` triangles as leaves only where SAH says a leaf is
-            cheaper (leaves may then be smaller than the cap). False: the longest centroid
-            axis's median, split down to ``max_leaf``.
+            cheaper (leaves may then be smaller than the cap). False, or more than
+            SAH_MAX_TRIANGLES triangles: the longest centroid axis's median, split down to
+            ``max_leaf``.
 
     Returns:
         The flattened `BVH` (see the module docstring for the node layout).
@@ -306,7 +312,7 @@ def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF,
 
     centroids = (tris[:, 0] + tris[:, 1] + tris[:, 2]) / 3.0  # (F, 3); 4x faster than mean(axis=1)
     boxes = None
-    if sah:
+    if sah and n_tris <= SAH_MAX_TRIANGLES:
         boxes = np.empty((6, n_tris), np.float32)   # (lo, -hi) per column: mins only
         boxes[:3] = tris.min(axis=1).T
         boxes[3:] = -tris.max(axis=1).T
