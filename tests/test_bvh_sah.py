@@ -116,3 +116,13 @@ def test_counters_are_compiled_out_by_default_and_add_up(gl):
     assert m["iterations_per_ray"] == pytest.approx(m["node_steps_per_ray"] + m["triangle_tests_per_ray"])
     assert m["fetches_per_ray"] == pytest.approx(4 * m["iterations_per_ray"])
     assert 1.0 <= m["node_steps_per_ray"] < 60.0
+
+
+def test_large_meshes_fall_back_to_the_longest_axis_median(monkeypatch):
+    import mcpt.bvh as bvh_mod
+
+    tris = MESHES["random"]
+    monkeypatch.setattr(bvh_mod, "SAH_MAX_TRIANGLES", len(tris) - 1)
+    big = build_bvh(tris, max_leaf=4)
+    plain = build_bvh(tris, max_leaf=4, sah=False)
+    assert np.array_equal(big.nodes, plain.nodes) and np.array_equal(big.order, plain.order)
