@@ -1,13 +1,20 @@
 """Median-split bounding volume hierarchy over triangles, flattened for the GPU.
 
-Build: object-median split along the longest axis of each node's centroid bounds. The tree is
+Build: object-median splits. Each node is split at the object median of one axis, the axis
+chosen among the three by the surface area heuristic (SAH: MacDonald & Booth 1990), and a node
+of at most ``max_leaf`` triangles stays a leaf where SAH prices the leaf no dearer than its best
+split; SAH prices are loop iterations of glsl/bvh.glsl, where a node step and a triangle test
+cost the same (SAH_STEP_COST, SAH_TRI_COST). Above SAH_MAX_TRIANGLES, or with ``sah=False``,
+the longest axis of the centroid bounds is split down to ``max_leaf`` (the build's cost). The tree is
 built level by level with every node of a level handled by the same numpy operations, so the
 Python work is O(depth), not O(triangles) or O(nodes): three index lists, each sorted by one
 centroid axis, are kept grouped by node and sorted inside every node; splitting a node at its
 median on axis k is then "the first half of list k goes left", and all three lists are
 stable-partitioned with one cumulative sum per level (the classic presorted kd-tree build).
 Leaves hold at most `max_leaf` triangles; nodes whose centroids all coincide are still split
-in half by position, so depth is at most ceil(log2(F / max_leaf)) + 1 for any input.
+in half by position, so depth is at most ceil(log2(F)) + 1 for any input (ceil(log2(F /
+max_leaf)) + 1 without SAH). The GPU buffer (BVH.gpu_nodes) is a different, traversal-shaped
+layout of the same tree.
 
 Large triangles get their own subtree: a pure object-median split mixes the few big triangles of
 a scene (room walls) into leaves of small ones (a bunny), and each such leaf's box -- and every
