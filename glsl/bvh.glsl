@@ -13,6 +13,9 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 #ifndef MCPT_COUNTERS
 #define MCPT_COUNTERS 0
 #endif
+#ifndef MCPT_BVH_DENSE
+#define MCPT_BVH_DENSE 0
+#endif
 // Debug counters (MCPT_COUNTERS, mcpt/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS
 layout(std430, binding = 0) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
@@ -80,7 +83,54 @@ bool leaf_hit(Ray r, RayPre p, int first, int count, bool any_hit, inout Hit h) 
 bool trace(Ray r, inout Hit h, bool any_hit) {
     RayPre p = ray_pre(r.d);
     bool found = false;
-#if MCPT_BVH
+#if MCPT_BVH && MCPT_BVH_DENSE
+    // Scenes where a ray must test very many triangles (heavily overlapping boxes, mcpt/bvh.py
+    // BVH.dense): one triangle per iteration would run into llvmpipe's loop limit
+    // (common.glsl), so each node step tests both children's boxes and intersects leaf children
+    // right there, up to 2 x BVH_MAX_LEAF triangles per iteration. Interior node = 4 texels:
+    //   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
+    // child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
+    vec3 inv = safe_inv(r.d);
+    vec3 par = step(1e29, abs(inv)) * 3e38;
+    int stack[BVH_STACK];
+    int sp = 0;
+    int node = 0;
+    while (true) {
+        LOOP_TICK();
+        uvec4 l0 = texelFetch(u_nodes, 4 * node);
+        uvec4 l1 = texelFetch(u_nodes, 4 * node + 1);
+        uvec4 r0 = texelFetch(u_nodes, 4 * node + 2);
+        uvec4 r1 = texelFetch(u_nodes, 4 * node + 3);
+        BVH_COUNT(1, 4 + 6 * BVH_MAX_LEAF);  // all code runs under the mask (issue #14)
+        BVH_COUNT_NODE();
+        BVH_COUNT_TRIS(2 * BVH_MAX_LEAF);
+        float tl, tr;
+        bool hl = box_hit(uintBitsToFloat(l0.xyz), uintBitsToFloat(l1.xyz), r.o, inv, par, h.t, tl);
+        bool hr = box_hit(uintBitsToFloat(r0.xyz), uintBitsToFloat(r1.xyz), r.o, inv, par, h.t, tr);
+        if (hl && l1.w != 0u && leaf_hit(r, p, int(l0.w), int(l1.w & 0x7fffffffu), any_hit, h)) {
+            found = true;
+            if (any_hit) return true;
+        }
+        if (hr && r1.w != 0u && leaf_hit(r, p, int(r0.w), int(r1.w & 0x7fffffffu), any_hit, h)) {
+            found = true;
+            if (any_hit) return true;
+        }
+        hl = hl && l1.w == 0u;
+        hr = hr && r1.w == 0u;
+        if (hl && hr) {
+            bool left_first = tl <= tr;
+            stack[sp++] = int(left_first ? r0.w : l0.w);
+            node = int(left_first ? l0.w : r0.w);
+        } else if (hl) {
+            node = int(l0.w);
+        } else if (hr) {
+            node = int(r0.w);
+        } else {
+            if (sp == 0) break;
+            node = stack[--sp];
+        }
+    }
+#elif MCPT_BVH
     vec3 inv = safe_inv(r.d);
     vec3 par = step(1e29, abs(inv)) * 3e38;  // slabs the ray runs parallel to (box_hit)
     uint stack[BVH_STACK];

@@ -74,6 +74,12 @@ DEFAULT_MAX_LEAF = 4
 #: iteration each (same four fetches), so visiting a node costs as much as testing a triangle.
 SAH_STEP_COST = 1.0
 SAH_TRI_COST = 1.0
+#: A ray entering the root box is expected to run more loop iterations than this: with up to 16
+#: rays per path, one item per iteration would approach llvmpipe's 65535-iteration limit
+#: (common.glsl), so the tree is traversed with wide leaves instead (BVH.dense). Ordinary meshes
+#: stay far below (bunny ~38, 10^6 random triangles in a cube ~410); a cluster of 10^4 triangles
+#: whose boxes all overlap is ~2 * 10^4.
+DENSE_SAH_COST = 1024.0
 #: Above this many triangles the build takes the longest axis's median without pricing splits:
 #: SAH pricing keeps six box rows per list moving with the partition and roughly doubles the
 #: numpy build (measured, bench/bvh_build.py: 10^6 random triangles 2.0 s -> 5.1 s CPU on the
@@ -139,7 +145,14 @@ class BVH:
         """(M,) int64 triangle count of each leaf, 0 for interior nodes."""
         return np.where(self.is_leaf, self.nodes[:, 7] & ~np.uint32(LEAF_FLAG), 0).astype(np.int64)
 
-    def gpu_nodes(self, tris_reordered: np.ndarray) -> np.ndarray:
+    @property
+    def dense(self) -> bool:
+        """Rays must test so many triangles here (SAH cost above DENSE_SAH_COST iterations per
+        ray) that glsl/bvh.glsl's one-item-per-iteration traversal would reach llvmpipe's loop
+        limit: such trees get the wide-leaf traversal (MCPT_BVH_DENSE, ``gpu_nodes(dense=True)``)."""
+        return self.worst_sah_cost() > DENSE_SAH_COST
+
+    def gpu_nodes(self, tris_reordered: np.ndarray, dense: bool = False) -> np.ndarray:
         """The buffer glsl/bvh.glsl traverses: ``(4 I + 3 F + 1, 4)`` uint32 RGBA32UI texels.
 
         Interior nodes first (node k at texel 4k, the root at 0), each holding both children's
@@ -162,7 +175,10 @@ class BVH:
         Args:
             tris_reordered: (F, 3, 3) float32 triangles in BVH order (``tris[bvh.order]``), in the
                 frame the shader traces in.
+            dense: the layout of the wide-leaf traversal instead (:meth:`dense_nodes`).
         """
+        if dense:
+            return self.dense_nodes()
         tris = np.ascontiguousarray(tris_reordered, dtype=np.float32)
         n_tris = self.num_triangles
         if tris.shape != (n_tris, 3, 3):
@@ -204,6 +220,38 @@ class BVH:
             recs[:, slot, 3] = ref(child)
         return out
 
+    def dense_nodes(self) -> np.ndarray:
+        """Layout of the wide-leaf traversal (glsl/bvh.glsl, MCPT_BVH_DENSE): ``(I * 4, 4)``
+        uint32, 4 texels per INTERIOR node holding both children's boxes::
+
+            texel 0 = (left.bmin bits,  left.a)    texel 1 = (left.bmax bits,  left.b)
+            texel 2 = (right.bmin bits, right.a)   texel 3 = (right.bmax bits, right.b)
+
+        A child with ``b == 0`` is interior and ``a`` is its index here; otherwise ``b`` is
+        ``count | LEAF_FLAG`` and ``a`` the first triangle (in u_tris). A tree that is a single
+        leaf becomes one node whose right child is an empty leaf.
+        """
+        nodes, leaf = self.nodes, self.is_leaf
+        if self.leaf_count.max(initial=0) > GPU_MAX_LEAF:
+            raise ValueError(f"leaves of up to {self.leaf_count.max()} triangles; the GPU "
+                             f"traversal handles {GPU_MAX_LEAF} (build with max_leaf <= {GPU_MAX_LEAF})")
+        interior = np.flatnonzero(~leaf)
+        if interior.size == 0:
+            root = nodes[0]
+            empty = root.copy()
+            empty[3], empty[7] = 0, LEAF_FLAG
+            return np.stack([root[:4], root[4:], empty[:4], empty[4:]]).astype(np.uint32)
+        new_index = np.zeros(len(nodes), np.uint32)
+        new_index[interior] = np.arange(interior.size, dtype=np.uint32)
+        out = np.empty((interior.size, 4, 4), np.uint32)
+        for slot, child in ((0, interior + 1), (2, nodes[interior, 3].astype(np.int64))):
+            is_leaf = leaf[child]
+            out[:, slot, :3] = nodes[child, 0:3]
+            out[:, slot + 1, :3] = nodes[child, 4:7]
+            out[:, slot, 3] = np.where(is_leaf, nodes[child, 3], new_index[child])
+            out[:, slot + 1, 3] = np.where(is_leaf, nodes[child, 7], 0)
+        return out.reshape(-1, 4)
+
     def stats(self) -> dict:
         """Summary numbers for logs, `mcpt info` and benchmarks."""
         counts = self.leaf_count[self.is_leaf]
@@ -218,15 +266,39 @@ class BVH:
             "sah_cost": self.sah_cost(),
         }
 
+    def worst_sah_cost(self) -> float:
+        """The largest SAH cost of any subtree, relative to its own box: the iterations a ray
+        entering that box expects. A cluster whose boxes all overlap shows here even when it
+        fills a small part of the root box (then ``sah_cost`` stays small)."""
+        area, price = self._sah_terms()
+        n = len(area)
+        idx = np.arange(n)
+        # Pre-order: a subtree is the index range [i, end_i), end_i = 1 + the last node on i's
+        # right spine; pointer doubling finds it in log2(depth) vectorised steps.
+        ptr = np.where(self.is_leaf, idx, self.nodes[:, 3].astype(np.int64))
+        for _ in range(max(1, int(np.ceil(np.log2(self.depth + 1))))):
+            ptr = ptr[ptr]
+        acc = np.concatenate([[0.0], np.cumsum(area * price)])
+        ok = area > 0.0
+        if not ok.any():
+            return 0.0
+        return float(((acc[ptr + 1] - acc[idx])[ok] / area[ok]).max())
+
+    def _sah_terms(self) -> tuple[np.ndarray, np.ndarray]:
+        e = np.maximum(self.bounds_max.astype(np.float64) - self.bounds_min, 0.0)
+        with np.errstate(invalid="ignore", over="ignore"):
+            area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+        area = np.where(np.isfinite(area), area, 0.0)
+        price = np.where(self.is_leaf, self.leaf_count * SAH_TRI_COST, SAH_STEP_COST)
+        return area, price
+
     def sah_cost(self) -> float:
         """Expected loop iterations of a ray that enters the root box, by the surface area
         heuristic (MacDonald & Booth 1990): each node is entered with probability area(node) /
         area(root) and then costs SAH_STEP_COST (interior) or count * SAH_TRI_COST (leaf)."""
-        e = np.maximum(self.bounds_max.astype(np.float64) - self.bounds_min, 0.0)
-        area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
-        if not np.isfinite(area).all() or area[0] <= 0.0:
+        area, price = self._sah_terms()
+        if area[0] <= 0.0:
             return float("nan")
-        price = np.where(self.is_leaf, self.leaf_count * SAH_TRI_COST, SAH_STEP_COST)
         return float((area * price).sum() / area[0])
 
 

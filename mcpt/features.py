@@ -53,6 +53,7 @@ class Features:
     sampling: str = "mis"           # "mis", "nee" (light sampling only), "bsdf" (no light sampling)
     russian_roulette: bool = True   # only matters when bounces > RR_START
     bvh: bool = True                # False: brute-force loop over all triangles
+    bvh_dense: bool = False         # wide-leaf traversal for heavily overlapping trees (bvh.py BVH.dense)
     diffuse: bool = True            # Lambertian material present
     conductor: bool = False         # conductor (mirror or rough metal) present
     microfacet: bool = False        # some conductor is rough: GGX code
@@ -114,6 +115,7 @@ class Features:
             "MCPT_RR": b(self.rr),
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(self.bvh),
+            "MCPT_BVH_DENSE": b(self.bvh and self.bvh_dense),
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
             "MCPT_MAT_CONDUCTOR": b(self.conductor),
             "MCPT_MICROFACET": b(self.conductor and self.microfacet),
@@ -144,7 +146,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False,
-           loop_limit: int = 0, counters: bool = False) -> Features:
+           loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
@@ -170,4 +172,5 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         variance=variance,
         loop_limit=loop_limit,
         counters=counters,
+        bvh_dense=bvh_dense,
     )

@@ -126,3 +126,41 @@ def test_large_meshes_fall_back_to_the_longest_axis_median(monkeypatch):
     big = build_bvh(tris, max_leaf=4)
     plain = build_bvh(tris, max_leaf=4, sah=False)
     assert np.array_equal(big.nodes, plain.nodes) and np.array_equal(big.order, plain.order)
+
+
+def test_dense_trees_are_detected_even_inside_a_larger_scene():
+    from mcpt.stability import star_cluster
+
+    v, f = star_cluster(10_000)  # 10^4 triangles whose boxes all overlap
+    wall = np.array([[[-9, -9, -5], [9, -9, -5], [9, 9, -5]], [[-9, -9, -5], [9, 9, -5], [-9, 9, -5]]], float)
+    scene = build_bvh(np.concatenate([v[f], wall]))
+    assert scene.sah_cost() < scene.worst_sah_cost()
+    assert scene.dense and build_bvh(v[f]).dense
+    assert not build_bvh(MESHES["bunny"]).dense and not build_bvh(MESHES["cornell+bunny"]).dense
+
+
+def test_dense_traversal_agrees_with_the_default_one(gl):
+    from mcpt.loader import pack_triangles
+    from mcpt.probe import run_probe
+
+    tris = MESHES["cornell+bunny"].astype(np.float32)
+    bvh = build_bvh(tris)
+    tr = tris[bvh.order]
+    rng = np.random.default_rng(9)
+    lo, hi = tr.reshape(-1, 3).min(0), tr.reshape(-1, 3).max(0)
+    o = lo + (0.1 + 0.8 * rng.random((3000, 3))) * (hi - lo)
+    d = rng.standard_normal((3000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    probe = np.zeros((2 * len(o), 4), np.uint32)
+    probe[0::2, :3] = o.astype(np.float32).view(np.uint32)
+    probe[1::2, :3] = d.astype(np.float32).view(np.uint32)
+    outs = []
+    for dense in (0, 1):
+        outs.append(run_probe(gl, "probe_trace.frag", probe, len(o),
+                              preamble=f"#define MCPT_BVH 1\n#define MCPT_BVH_DENSE {dense}",
+                              key=("bvh-dense", dense),
+                              tbos={"nodes": bvh.gpu_nodes(tr, dense=bool(dense)),
+                                    "tris": pack_triangles(tr, np.zeros(len(tr), np.int32))},
+                              uniforms={"u_tri_count": len(tr)}))
+    assert (outs[0][:, 1] > 0).mean() > 0.7
+    assert np.array_equal(outs[0], outs[1])
