@@ -66,7 +66,7 @@ class World:
             bounces=self.scene.render.bounces if bounces is None else bounces,
             n_triangles=self.n_triangles, n_emissive=self.lights.count, material_types=used,
             rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
-            smooth_normals=mt.smooth_shaded(ids), bvh_dense=self.bvh.dense, **flags)
+            smooth_normals=mt.smooth_shaded(ids), **{"bvh_dense": self.bvh.dense, **flags})
 
     def buffers(self, features: feat.Features) -> dict[str, np.ndarray]:
         """The arrays to upload, by TBO name: only what ``features`` needs (the data diet)."""
