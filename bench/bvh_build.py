@@ -67,7 +67,7 @@ def main(argv=None) -> int:
             wall[side].append(time.perf_counter() - w0)
     for side, name in (("A", args.base), ("B", "worktree")):
         t = trees[side]
-        sah = new.BVH.sah_cost(t) if not hasattr(t, "sah_cost") else t.sah_cost()
+        sah = new.BVH(t.nodes, t.order, t.depth, t.max_leaf, t.build_seconds).sah_cost()
         print(f"{side} {name:10s} {len(tris):,d} triangles: wall {min(wall[side]):.2f} s "
               f"(median {np.median(wall[side]):.2f}), CPU {min(cpu[side]):.2f} s "
               f"(median {np.median(cpu[side]):.2f}); nodes {t.num_nodes:,d}, depth {t.depth}, "
