@@ -14,13 +14,16 @@ from .options import render_options
 @click.argument("scene_file", type=click.Path(dir_okay=False))
 @render_options
 @click.option("--json", "as_json", is_flag=True, help="Emit JSON on stdout.")
+@click.option("--counters", is_flag=True,
+              help="Also render one pass with traversal counters: node steps, triangle tests and "
+                   "texel fetches per ray.")
 @reports_errors
-def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, as_json):
+def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, as_json, counters):
     """Counts, BVH statistics, features, buffer sizes and GL limits of SCENE_FILE."""
     from mcpt.api import describe
 
     report = describe(scene_file, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
-                      gl_backend=gl_backend, features_mode=features_mode)
+                      gl_backend=gl_backend, features_mode=features_mode, counters=counters)
     if as_json:
         click.echo(json.dumps(report, indent=2))
         return

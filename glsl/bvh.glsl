@@ -1,17 +1,39 @@
 // Closest-hit and any-hit traversal (host side: mcpt/shapes/bvh.py BVH.gpu_nodes defines the layout).
-// Interior node = 4 RGBA32UI texels, both children's boxes:
-//   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
-// child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
+// One RGBA32UI buffer holds interior nodes (4 texels: both children's boxes and references)
+//   (left.bmin, left.ref), (left.bmax, 0), (right.bmin, right.ref), (right.bmax, 0)
+// then triangle records (3 texels: (v0, triangle index), (v1, 0), (v2, 0)) and one pad texel.
 #include "geometry.glsl"
 
 layout(binding = 1) uniform usamplerBuffer u_nodes;
 #define BVH_STACK 64   // >= tree depth + 2, asserted by the builder (mcpt/shapes/bvh.py MAX_STACK)
-#define BVH_MAX_LEAF 4 // triangles per leaf at most (mcpt/shapes/bvh.py GPU_MAX_LEAF, asserted there)
+#define BVH_MAX_LEAF 4 // triangles per iteration of the brute-force loop (no BVH)
+const uint BVH_ADDR_MASK = 0x0fffffffu;  // item reference: texel address in the low 28 bits
+const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count above them
+
+#ifndef MCPT_COUNTERS
+#define MCPT_COUNTERS 0
+#endif
+#ifndef MCPT_BVH_DENSE
+#define MCPT_BVH_DENSE 0
+#endif
+// Debug counters (MCPT_COUNTERS, mcpt/gpu/counters.py): per-ray work, summed by atomics.
+#if MCPT_COUNTERS
+layout(std430, binding = 0) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
+uint g_iter = 0u, g_fetch = 0u, g_node = 0u, g_tri = 0u;
+#define BVH_COUNT(it, f) (g_iter += uint(it), g_fetch += uint(f))
+#define BVH_COUNT_NODE() (g_node++)
+#define BVH_COUNT_TRIS(n) (g_tri += uint(n))
+#else
+#define BVH_COUNT(it, f)
+#define BVH_COUNT_NODE()
+#define BVH_COUNT_TRIS(n)
+#endif
 
 // Slab test. Zero direction components are replaced by a tiny value upstream (safe_inv) so no
 // 0 * inf = NaN appears; the far distance is widened by 2 gamma(3) (Ize 2013, "Robust BVH Ray
 // Traversal") so rounding never misses a box the ray really enters.
-bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax, out float tnear) {
+// par = step(1e29, |inv|) * 3e38, per ray (see the comment below).
+bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, vec3 par, float tmax, out float tnear) {
     vec3 t0 = (bmin - o) * inv;
     vec3 t1 = (bmax - o) * inv;
     vec3 tsm = min(t0, t1);
@@ -21,7 +43,7 @@ bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax, out float tnear
     // ray running inside a box face (flat boxes of axis-aligned walls) missed the box (issue #6,
     // case watertight-flat-grid-axis-rays). Such a ray stays in the slab for every t when its
     // origin is inside it, bounds included: push the slab's far distance out of reach.
-    tbg += step(1e29, abs(inv)) * step(bmin, o) * step(o, bmax) * 3e38;
+    tbg += par * step(bmin, o) * step(o, bmax);
     float tn = max(max(tsm.x, tsm.y), max(tsm.z, 0.0));
     float tf = min(min(tbg.x, tbg.y), min(tbg.z, tmax)) * 1.0000004;
     tnear = tn;
@@ -53,12 +75,23 @@ bool leaf_hit(Ray r, RayPre p, int first, int count, bool any_hit, inout Hit h) 
     return found;
 }
 
-// any_hit = true: return on the first hit with t < h.t (shadow rays).
+// One loop iteration = one work item, a node OR one triangle, read with the same four fetches:
+// llvmpipe runs the whole loop body for every lane whatever each lane needs (issue #14), so the
+// body holds one box-pair test, one triangle test and four texel fetches, nothing more.
+// Item reference: texel address | triangle count << 28; count 0 is a node, count k >= 1 the
+// leaf of k consecutive triangle records starting there (a leaf cursor: one triangle per step).
 bool trace(Ray r, inout Hit h, bool any_hit) {
     RayPre p = ray_pre(r.d);
     bool found = false;
-#if MCPT_BVH
+#if MCPT_BVH && MCPT_BVH_DENSE
+    // Scenes where a ray must test very many triangles (heavily overlapping boxes, mcpt/shapes/bvh.py
+    // BVH.dense): one triangle per iteration would run into llvmpipe's loop limit
+    // (common.glsl), so each node step tests both children's boxes and intersects leaf children
+    // right there, up to 2 x BVH_MAX_LEAF triangles per iteration. Interior node = 4 texels:
+    //   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
+    // child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
     vec3 inv = safe_inv(r.d);
+    vec3 par = step(1e29, abs(inv)) * 3e38;
     int stack[BVH_STACK];
     int sp = 0;
     int node = 0;
@@ -68,10 +101,12 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
         uvec4 l1 = texelFetch(u_nodes, 4 * node + 1);
         uvec4 r0 = texelFetch(u_nodes, 4 * node + 2);
         uvec4 r1 = texelFetch(u_nodes, 4 * node + 3);
+        BVH_COUNT(1, 4 + 6 * BVH_MAX_LEAF);  // all code runs under the mask (issue #14)
+        BVH_COUNT_NODE();
+        BVH_COUNT_TRIS(2 * BVH_MAX_LEAF);
         float tl, tr;
-        bool hl = box_hit(uintBitsToFloat(l0.xyz), uintBitsToFloat(l1.xyz), r.o, inv, h.t, tl);
-        bool hr = box_hit(uintBitsToFloat(r0.xyz), uintBitsToFloat(r1.xyz), r.o, inv, h.t, tr);
-        // Leaf children are intersected right here; only interior children are descended into.
+        bool hl = box_hit(uintBitsToFloat(l0.xyz), uintBitsToFloat(l1.xyz), r.o, inv, par, h.t, tl);
+        bool hr = box_hit(uintBitsToFloat(r0.xyz), uintBitsToFloat(r1.xyz), r.o, inv, par, h.t, tr);
         if (hl && l1.w != 0u && leaf_hit(r, p, int(l0.w), int(l1.w & 0x7fffffffu), any_hit, h)) {
             found = true;
             if (any_hit) return true;
@@ -95,10 +130,59 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
             node = stack[--sp];
         }
     }
+#elif MCPT_BVH
+    vec3 inv = safe_inv(r.d);
+    vec3 par = step(1e29, abs(inv)) * 3e38;  // slabs the ray runs parallel to (box_hit)
+    uint stack[BVH_STACK];
+    int sp = 0;
+    uint cur = 0u;  // the root node
+    while (true) {
+        LOOP_TICK();
+        int a = int(cur & BVH_ADDR_MASK);
+        uvec4 x0 = texelFetch(u_nodes, a);
+        uvec4 x1 = texelFetch(u_nodes, a + 1);
+        uvec4 x2 = texelFetch(u_nodes, a + 2);
+        uvec4 x3 = texelFetch(u_nodes, a + 3);
+        BVH_COUNT(1, 4);
+        bool next_valid;
+        uint next;
+        if (cur >= BVH_LEAF_ONE) {
+            // Triangle record: (v0, index), (v1, 0), (v2, 0); x3 belongs to the next record.
+            BVH_COUNT_TRIS(1);
+            float t; vec2 bary;
+            if (intersect_tri_verts(r, p, uintBitsToFloat(x0.xyz), uintBitsToFloat(x1.xyz),
+                                    uintBitsToFloat(x2.xyz), h.t, t, bary)) {
+                h.t = t; h.tri = int(x0.w); h.bary = bary; found = true;
+                if (any_hit) break;
+            }
+            next_valid = cur >= 2u * BVH_LEAF_ONE;       // more triangles in this leaf
+            next = cur - BVH_LEAF_ONE + 3u;
+        } else {
+            // Node record: both children's boxes and references.
+            BVH_COUNT_NODE();
+            float tl, tr;
+            bool hl = box_hit(uintBitsToFloat(x0.xyz), uintBitsToFloat(x1.xyz), r.o, inv, par, h.t, tl);
+            bool hr = box_hit(uintBitsToFloat(x2.xyz), uintBitsToFloat(x3.xyz), r.o, inv, par, h.t, tr);
+            bool left_first = tl <= tr;
+            uint near = left_first ? x0.w : x2.w;
+            uint far = left_first ? x2.w : x0.w;
+            if (hl && hr) stack[sp++] = far;
+            next_valid = hl || hr;
+            next = (hl && hr) ? near : (hl ? x0.w : x2.w);
+        }
+        if (next_valid) {
+            cur = next;
+        } else {
+            if (sp == 0) break;
+            cur = stack[--sp];
+        }
+    }
 #else
     // BVH_MAX_LEAF triangles per iteration: fewer loop iterations (see common.glsl).
     for (int i = 0; i < u_tri_count; i += BVH_MAX_LEAF) {
         LOOP_TICK();
+        BVH_COUNT(1, 3 * BVH_MAX_LEAF);
+        BVH_COUNT_TRIS(BVH_MAX_LEAF);
         if (leaf_hit(r, p, i, min(BVH_MAX_LEAF, u_tri_count - i), any_hit, h)) {
             found = true;
             if (any_hit) return true;
@@ -108,13 +192,28 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
     return found;
 }
 
+#if MCPT_COUNTERS
+void bvh_count_flush(bool shadow) {
+    atomicAdd(c_rays, 1u); atomicAdd(c_iterations, g_iter); atomicAdd(c_fetches, g_fetch);
+    atomicAdd(c_nodes, g_node); atomicAdd(c_tris, g_tri); atomicAdd(c_shadow, shadow ? 1u : 0u);
+    g_iter = 0u; g_fetch = 0u; g_node = 0u; g_tri = 0u;
+}
+#define BVH_FLUSH(shadow) bvh_count_flush(shadow)
+#else
+#define BVH_FLUSH(shadow)
+#endif
+
 bool trace_closest(Ray r, out Hit h) {
     h.t = INF; h.tri = -1; h.bary = vec2(0.0);
-    return trace(r, h, false);
+    bool found = trace(r, h, false);
+    BVH_FLUSH(false);
+    return found;
 }
 
 // True when nothing blocks the segment from r.o to r.o + tmax * r.d.
 bool visible(Ray r, float tmax) {
     Hit h; h.t = tmax; h.tri = -1; h.bary = vec2(0.0);
-    return !trace(r, h, true);
+    bool blocked = trace(r, h, true);
+    BVH_FLUSH(true);
+    return !blocked;
 }

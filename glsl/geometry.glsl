@@ -41,10 +41,11 @@ RayPre ray_pre(vec3 d) {
 // Watertight ray/triangle test: a ray through a shared edge or vertex hits at least one of the
 // triangles sharing it. `precise` stops fast-math from contracting the 2x2 determinants into
 // FMAs, which would break the exact antisymmetry of an edge shared by two triangles.
-bool intersect_tri(Ray r, RayPre p, int tri, float tmax, out float t, out vec2 bary) {
-    precise vec3 A = p.M * (tri_vertex(tri, 0) - r.o);
-    precise vec3 B = p.M * (tri_vertex(tri, 1) - r.o);
-    precise vec3 C = p.M * (tri_vertex(tri, 2) - r.o);
+bool intersect_tri_verts(Ray r, RayPre p, vec3 v0, vec3 v1, vec3 v2, float tmax,
+                         out float t, out vec2 bary) {
+    precise vec3 A = p.M * (v0 - r.o);
+    precise vec3 B = p.M * (v1 - r.o);
+    precise vec3 C = p.M * (v2 - r.o);
     precise float U = C.x * B.y - C.y * B.x;
     precise float V = A.x * C.y - A.y * C.x;
     precise float W = B.x * A.y - B.y * A.x;
@@ -57,6 +58,11 @@ bool intersect_tri(Ray r, RayPre p, int tri, float tmax, out float t, out vec2 b
     if (!(t > 0.0 && t < tmax)) return false;  // also rejects NaN
     bary = vec2(V, W) * inv;
     return true;
+}
+
+bool intersect_tri(Ray r, RayPre p, int tri, float tmax, out float t, out vec2 bary) {
+    return intersect_tri_verts(r, p, tri_vertex(tri, 0), tri_vertex(tri, 1), tri_vertex(tri, 2),
+                               tmax, t, bary);
 }
 
 vec3 tri_point(int tri, vec2 bary) {

@@ -90,12 +90,13 @@ def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolu
     return result, meta
 
 
-def describe(scene, **kwargs) -> dict:
-    """Everything ``mcpt info`` shows: counts, BVH, features, buffer bytes, GL limits."""
+def describe(scene, counters: bool = False, **kwargs) -> dict:
+    """Everything ``mcpt info`` shows: counts, BVH, features, buffer bytes, GL limits; with
+    ``counters``, also the traversal work per ray of one pass (mcpt/gpu/counters.py)."""
     p = prepare(scene, **kwargs)
     try:
         cam = p.scene.camera
-        return {
+        out = {
             "scene": {"file": str(p.scene.source_path), "name": p.scene.name or "",
                       "resolution": [cam.width, cam.height], "spp": p.scene.render.spp,
                       "bounces": p.features.bounces, "seed": p.scene.render.seed},
@@ -111,3 +112,10 @@ def describe(scene, **kwargs) -> dict:
         }
     finally:
         p.renderer.release()
+    if counters:
+        from .gpu.counters import measure
+
+        keep = ("gl_backend", "features_mode")  # p.scene already holds the other overrides
+        out["traversal"] = measure(p.scene, seed=p.scene.render.seed,
+                                   **{k: v for k, v in kwargs.items() if k in keep and v is not None})
+    return out

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from mcpt.shapes.bvh import build_bvh
+from mcpt.shapes.bvh_build import build_bvh
 from mcpt.shapes.geometry import pack_triangles
 from mcpt.shapes.mesh import load_mesh
 from mcpt.bench.probe import run_probe
@@ -26,7 +26,7 @@ def _gpu_closest(gl, tris32, bvh, origins, dirs, use_bvh=True):
     flag = int(use_bvh)
     out = run_probe(gl, "probe_trace.frag", probe, len(origins),
                     preamble=f"#define MCPT_BVH {flag}", key=("bvh", flag),
-                    tbos={"nodes": bvh.gpu_nodes(),
+                    tbos={"nodes": bvh.gpu_nodes(tris32),
                           "tris": pack_triangles(tris32, np.zeros(len(tris32), np.int32))},
                     uniforms={"u_tri_count": len(tris32)})
     t = np.where(out[:, 1] > 0, out[:, 0].view(np.float32), np.inf)

@@ -1,4 +1,4 @@
-// Stability probe (bench/stability_cases.py, llvmpipe-loop-limit): count the iterations a loop of
+// Stability probe (bench/stability/runtime.py, llvmpipe-loop-limit): count the iterations a loop of
 // u_n really runs in one fragment. llvmpipe stops every loop after 65535 back-edges in total.
 uniform int u_n;
 layout(location = 0) out uvec4 o_texel;

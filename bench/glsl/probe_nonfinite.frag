@@ -1,4 +1,4 @@
-// Stability probe (bench/stability_cases.py, non-finite-test-under-fast-math): common.glsl's
+// Stability probe (bench/stability/runtime.py, non-finite-test-under-fast-math): common.glsl's
 // non_finite() on runtime NaN (0/0), +-Inf (1/0, FLT_MAX * 2) and finite extremes (FLT_MAX, a
 // denormal, 0, -FLT_MAX). llvmpipe's fast-math folds isnan()/isinf(); the bit test must not be.
 // Writes one bit per value (bit i set: value i flagged) into pixel 0.

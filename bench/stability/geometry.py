@@ -37,7 +37,8 @@ def star_cluster(n: int, radius: float = 1.0, z: float = -3.0):
 def _cluster_bvh(env: Env) -> Outcome:
     """10^6 triangles with one common centroid: the median builder still halves by position, so
     the depth stays at ceil(log2(F / 4)) + 1 and the traversal stack (depth + 2) never overflows."""
-    from mcpt.shapes.bvh import MAX_STACK, build_bvh
+    from mcpt.shapes.bvh import MAX_STACK
+    from mcpt.shapes.bvh_build import build_bvh
 
     v, f = star_cluster(1_000_000)
     t0 = time.perf_counter()

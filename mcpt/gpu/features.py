@@ -62,6 +62,7 @@ class Features:
     sampling: str = "mis"           # "mis", "nee" (light sampling only), "bsdf" (no light sampling)
     russian_roulette: bool = True   # only matters when bounces > RR_START
     bvh: bool = True                # False: brute-force loop over all triangles
+    bvh_dense: bool = False         # wide-leaf traversal for heavily overlapping trees (bvh.py BVH.dense)
     diffuse: bool = True            # Lambertian material present
     conductor: bool = False         # conductor (mirror or rough metal) present
     microfacet: bool = False        # some conductor is rough: GGX code
@@ -75,6 +76,7 @@ class Features:
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
+    counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
@@ -128,6 +130,7 @@ class Features:
             "MCPT_RR": b(self.rr),
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(self.bvh),
+            "MCPT_BVH_DENSE": b(self.bvh and self.bvh_dense),
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
             "MCPT_MAT_CONDUCTOR": b(self.conductor),
             "MCPT_MICROFACET": b(self.conductor and self.microfacet),
@@ -143,6 +146,7 @@ class Features:
             "MCPT_CLAMP": b(self.clamp),
             "MCPT_VARIANCE": b(self.variance),
             "MCPT_LOOP_LIMIT": self.loop_limit,
+            "MCPT_COUNTERS": b(self.counters),
         }
 
     def preamble(self) -> str:
@@ -161,7 +165,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
            sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False,
-           loop_limit: int = 0) -> Features:
+           loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
@@ -189,6 +193,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         clamp=clamp,
         variance=variance,
         loop_limit=loop_limit,
+        counters=counters,
+        bvh_dense=bvh_dense,
     )
 
 
@@ -201,4 +207,4 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         n_triangles=world.n_triangles, n_emissive=world.lights.count, material_types=used,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
-        one_sided=mt.one_sided_used(ids), **flags)
+        one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})

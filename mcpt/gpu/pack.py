@@ -51,7 +51,7 @@ def pack(world: World, features: Features) -> Packed:
                    material_light_pdf_area(world.materials.emission, world.lights.total_power),
                    texels=features.material_texels)}
     if features.bvh:
-        buffers["nodes"] = world.bvh.gpu_nodes()
+        buffers["nodes"] = world.bvh.gpu_nodes(world.tris, dense=features.bvh_dense)
     if features.nee:
         buffers["lights"] = world.lights.pack()
     # The uber-shader (--features all) declares these buffers for any scene, but reads them only

@@ -1,7 +1,7 @@
 """Explicit shader assembly and the program cache.
 
 A program is assembled from files under ``glsl/``: ``#version`` first, then the feature preamble
-(every define emitted as 0/1 or a number, see :mod:`mcpt.features`), then the entry file with its
+(every define emitted as 0/1 or a number, see :mod:`mcpt.gpu.features`), then the entry file with its
 ``#include "x.glsl"`` lines expanded in place. Conditionals made only of ``MCPT_*`` defines are
 resolved here, so code a scene does not use (and the files it would include) never even reaches
 the driver: the source of a diffuse-only scene holds no glass or metal code. Skipped lines become

@@ -26,7 +26,8 @@ from ..shading.lights import Lights, build_lights
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from . import geometry, obj
-from .bvh import BVH, build_bvh
+from .bvh import BVH
+from .bvh_build import build_bvh
 from .mesh import MeshError, first_of_duplicates, load_mesh
 
 log = logging.getLogger("mcpt")
