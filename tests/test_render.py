@@ -102,3 +102,21 @@ def test_exr_output_is_linear_float32_with_the_render_metadata(tmp_path):
     # Red wall on the left (scene.json: image x axis points to the viewer's right).
     left, right = bgr[10:22, 6:9].mean((0, 1)), bgr[10:22, -9:-6].mean((0, 1))
     assert left[2] > left[1] and right[1] > right[2]
+
+
+def test_emission_that_overflows_the_sums_never_reaches_the_image(tmp_path):
+    """Issue #10: a light of 1e37 (accepted: below float32's max) made 64-pass float32 sums
+    infinite. Those sums are dropped and counted; the image stays finite."""
+    (tmp_path / "floor.obj").write_text("v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 3 2\nf 1 4 3\n")
+    (tmp_path / "s.yaml").write_text(
+        "camera: {position: [0, 1, 0], look_at: [0, 0, 0], up: [0, 0, -1], vfov_deg: 60, resolution: [32, 32]}\n"
+        "render: {spp: 64, bounces: 1}\n"
+        "materials: {glow: {albedo: [0.5, 0.5, 0.5], emission: [1.0e37, 1.0e37, 1.0e37]}}\n"
+        "meshes: [{file: floor.obj, material: glow}]\n")
+    p = prepare(tmp_path / "s.yaml")
+    try:
+        r = p.renderer.render(64, 0)
+    finally:
+        p.renderer.release()
+    assert np.isfinite(r.image).all()
+    assert r.dropped_samples > 0  # counted, not silent

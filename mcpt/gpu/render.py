@@ -82,6 +82,19 @@ def check_host_memory(width: int, height: int, targets: int) -> None:
                           f"accumulation, more than half of the {total / 2**30:.1f} GiB here")
 
 
+def drop_nonfinite(sums: np.ndarray, passes: int) -> np.ndarray:
+    """Sums of one read-back whose float32 accumulation overflowed (each sample finite, e.g. a
+    light of 1e37 W sr^-1 m^-2 added 64 times) are dropped for that pixel and counted: all
+    ``passes`` of the read-back become dropped samples (alpha), so a non-finite value never
+    reaches the float64 total or the image (issue #10). Shaders drop non-finite samples
+    themselves; this catches what only the sum makes infinite."""
+    bad = ~np.isfinite(sums).all(axis=(0, 3))
+    if bad.any():
+        sums[:, bad, :] = 0.0
+        sums[0, bad, 3] = passes
+    return sums
+
+
 class Renderer:
     """A compiled program and the uploaded scene, ready to render passes.
 
@@ -197,7 +210,8 @@ class Renderer:
                 stopping = interrupt is not None and interrupt()
                 if (p + 1) % chunk == 0 or p + 1 == stop or stopping:
                     ctx.scissor = None
-                    yield p + 1, self._read_and_clear(np.float32)
+                    first = max(start, (p // chunk) * chunk) if carry is None else (p // chunk) * chunk
+                    yield p + 1, drop_nonfinite(self._read_and_clear(np.float32), p + 1 - first)
                 if stopping:
                     return
         finally:
@@ -219,6 +233,7 @@ class Renderer:
                             dropped, seconds, random_seconds, dict(self.setup))
 
     def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
+        """The accumulation targets as (targets, H, W, 4), row 0 at the top; then cleared."""
         out = []
         for i in range(len(self.targets)):
             raw = np.frombuffer(self.fbo.read(components=4, dtype="f4", attachment=i), np.float32)
