@@ -210,7 +210,7 @@ def test_signal_during_the_write_removes_the_temporary_file(folder, monkeypatch)
     (folder / "w.exr").write_bytes(SENTINEL)
     real = image.write_exr
 
-    def write_then_signal(path, rgb, metadata=None):
+    def write_then_signal(path, rgb, metadata=None, layers=None):
         def exploding(tmp):
             Path(tmp).write_bytes(b"half an image")
             os.kill(os.getpid(), signal.SIGTERM)  # the handler raises Interrupted at once
