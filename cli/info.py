@@ -15,12 +15,12 @@ from .options import render_options
 @render_options
 @click.option("--json", "as_json", is_flag=True, help="Emit JSON on stdout.")
 @reports_errors
-def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, as_json):
+def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, as_json):
     """Counts, BVH statistics, features, buffer sizes and GL limits of SCENE_FILE."""
     from mcpt.api import describe
 
     report = describe(scene_file, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
-                      gl_backend=gl_backend, features_mode=features_mode)
+                      gl_backend=gl_backend, features_mode=features_mode, sampler=sampler)
     if as_json:
         click.echo(json.dumps(report, indent=2))
         return

@@ -47,7 +47,7 @@ class Progress:
 @click.option("--json", "as_json", is_flag=True, help="Print the render summary as JSON on stdout.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @reports_errors
-def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, outputs, exposure,
+def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs, exposure,
            clamp, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     from mcpt.api import render_scene
@@ -58,7 +58,8 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
     progress = Progress(1, enabled=not quiet and sys.stderr.isatty())
     result, meta = render_scene(scene_file, outputs=outputs, spp=spp, bounces=bounces, seed=seed,
                                 resolution=resolution, gl_backend=gl_backend,
-                                features_mode=features_mode, clamp=clamp, exposure=exposure,
+                                features_mode=features_mode, sampler=sampler, clamp=clamp,
+                                exposure=exposure,
                                 progress=progress)
     summary = {"outputs": [str(o) for o in outputs], **meta, "mcpt_version": __version__}
     if as_json:

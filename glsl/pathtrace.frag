@@ -162,9 +162,16 @@ vec3 radiance(Ray ray) {
   #else
             vec3 rb = beta;
   #endif
-            float q = min(max(rb.r, max(rb.g, rb.b)), 0.95);
-            if (rand_at(dim + DIM_RR) >= q) return L;
-            beta /= q;
+            // pbrt-v4's rule: only a path whose (eta-corrected) throughput fell below 1 plays,
+            // and it survives with exactly that probability, with no cap below 1. A cap (we had
+            // 0.95, as Mitsuba 3) makes survivors' weights grow by albedo/cap per bounce, a
+            // heavy-tailed estimate that at albedo 0.999 practically never reaches its mean
+            // (issue #10: furnace at 1000 bounces gave 221 for 632.67).
+            float q = max(rb.r, max(rb.g, rb.b));
+            if (q < 1.0) {
+                if (rand_at(dim + DIM_RR) >= q) return L;
+                beta /= q;
+            }
         }
 #endif
 #if MCPT_MAT_DIELECTRIC
@@ -180,7 +187,7 @@ void main() {
     ivec2 frag = ivec2(gl_FragCoord.xy);
     ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
     ivec2 local = pixel - u_tile.xy;
-    sampler_init(local.y * u_tile.z + local.x);
+    sampler_init(pixel.y * u_resolution.x + pixel.x, local.y * u_tile.z + local.x);
     vec3 L = radiance(camera_ray(pixel, rand2_at(DIM_CAMERA)));
 #if MCPT_CLAMP
     float mx = max(L.r, max(L.g, L.b));

@@ -19,15 +19,16 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 
+from .sampler import DIMS_CAMERA, DIMS_PER_BOUNCE, dims_for, layout_defines  # noqa: F401
+
 # Russian roulette starts after this many scattering events (Mitsuba's rr_depth is 5 path
 # segments = 4 scattering events; we start a little earlier, it is unbiased either way).
 RR_START = 3
 
-# Random numbers each path vertex consumes (mcpt/sampler.py documents the layout):
-# light choice, light point (2), BSDF direction (2), roulette. Materials with two lobes (plastic,
-# dielectric) choose the lobe with the first BSDF number, so no feature adds dimensions.
-DIMS_CAMERA = 2
-DIMS_PER_BOUNCE = 6
+# Random numbers each path vertex consumes: defined once in mcpt/sampler.py (the layout).
+# Where the numbers come from (mcpt/sampler.py): "sobol" padded Owen-scrambled Sobol' computed in
+# the shader (default: converges faster, no per-pass upload), "independent" PCG64 from the host.
+SAMPLERS = ("sobol", "independent")
 
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
@@ -64,10 +65,13 @@ class Features:
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
+    sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
             raise ValueError(f"sampling must be one of {SAMPLING_MODES}, got {self.sampling!r}")
+        if self.sampler not in SAMPLERS:
+            raise ValueError(f"sampler must be one of {SAMPLERS}, got {self.sampler!r}")
 
     @property
     def nee(self) -> bool:
@@ -95,7 +99,12 @@ class Features:
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return DIMS_CAMERA + DIMS_PER_BOUNCE * self.bounces
+        return dims_for(self.bounces)
+
+    @property
+    def uploads_random(self) -> bool:
+        """The independent sampler uploads its numbers every pass; sobol computes them."""
+        return self.sampler == "independent"
 
     @property
     def key(self) -> tuple:
@@ -106,6 +115,8 @@ class Features:
         return {
             "MCPT_BOUNCES": self.bounces,
             "MCPT_RAND_DIMS": self.random_dims,
+            "MCPT_SAMPLER_SOBOL": b(self.sampler == "sobol"),
+            **layout_defines(),
             "MCPT_NEE": b(self.nee),
             "MCPT_MIS": b(self.mis),
             "MCPT_LIGHTS": b(self.lights),
@@ -142,7 +153,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False,
-           loop_limit: int = 0) -> Features:
+           loop_limit: int = 0, sampler: str = "sobol") -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
@@ -167,4 +178,5 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         clamp=clamp,
         variance=variance,
         loop_limit=loop_limit,
+        sampler=sampler,
     )

@@ -26,6 +26,7 @@ from .context import GLContext
 from .features import Features
 from .loader import World
 from .sampler import RandomNumbers
+from .sobol import seed32
 from .tbo import GL_R32F, create_tbo
 
 # Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
@@ -113,13 +114,18 @@ class Renderer:
             if name == "materials":
                 per = features.material_texels
             self.tbos[name] = create_tbo(gl, name, arr, per_item=per, item=item)
-        self.tiles = plan_tiles(self.width, self.height, features.random_dims,
-                                limits["max_texture_buffer_size"], max_random_per_tile)
-        tile_pixels = max(w * h for _, _, w, h in self.tiles)
-        # Host staging array filled in place each pass, and two buffer textures used in turn.
-        self._numbers = np.zeros(tile_pixels * features.random_dims, np.float32)
-        self.random = [create_tbo(gl, "random", self._numbers, internal_format=GL_R32F)
-                       for _ in range(2)]
+        if features.uploads_random:
+            self.tiles = plan_tiles(self.width, self.height, features.random_dims,
+                                    limits["max_texture_buffer_size"], max_random_per_tile)
+            tile_pixels = max(w * h for _, _, w, h in self.tiles)
+            # Host staging array filled in place each pass, and two buffer textures used in turn.
+            self._numbers = np.zeros(tile_pixels * features.random_dims, np.float32)
+            self.random = [create_tbo(gl, "random", self._numbers, internal_format=GL_R32F)
+                           for _ in range(2)]
+        else:  # sobol: numbers computed in the shader, nothing to upload or bound
+            self.tiles = [(0, 0, self.width, self.height)]
+            self._numbers = None
+            self.random = []
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
                         for _ in range(2 if features.variance else 1)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
@@ -136,7 +142,9 @@ class Renderer:
             "compile_seconds": t1 - t0,
             "upload_seconds": t2 - t1,
             "upload_bytes": {k: v.nbytes for k, v in self.tbos.items()},
-            "random_bytes_per_pass": int(self.width * self.height * features.random_dims * 4),
+            "random_bytes_per_pass": (int(self.width * self.height * features.random_dims * 4)
+                                      if features.uploads_random else 0),
+            "sampler": features.sampler,
             "tiles": len(self.tiles),
         }
 
@@ -153,7 +161,9 @@ class Renderer:
         if clamp is not None:
             self._uniform("u_clamp", float(clamp))
         dims = self.features.random_dims
+        upload = self.features.uploads_random
         streams = [RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
+        self._uniform("u_sobol_seed", seed32(seed))
         total = np.zeros((len(self.targets), self.height, self.width, 4), np.float64)
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
@@ -166,12 +176,15 @@ class Renderer:
         t0 = time.perf_counter()
         for p in range(spp):
             for ti, (x0, y0, w, h) in enumerate(self.tiles):
-                tr = time.perf_counter()
-                streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
-                rand_seconds += time.perf_counter() - tr
-                buf = self.random[draws % 2]
-                buf.write(self._numbers)
-                buf.bind()
+                if upload:
+                    tr = time.perf_counter()
+                    streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
+                    rand_seconds += time.perf_counter() - tr
+                    buf = self.random[draws % 2]
+                    buf.write(self._numbers)
+                    buf.bind()
+                else:
+                    self._uniform("u_sample_index", p)  # sobol: the pass is the sample index
                 self._uniform("u_tile", (x0, y0, w, h))
                 self._uniform("u_rand_stride", w * h)
                 # GL rows count from the bottom; tiles are given from the top.
