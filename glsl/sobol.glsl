@@ -14,11 +14,15 @@ uint sobol_hash(uint x) {
     return x;
 }
 
-// Burley 2020, listing 2: each bit depends only on itself and lower bits; applied to reversed
-// bits it is a nested uniform (Owen) scramble.
+// Each bit depends only on itself and lower bits; applied to reversed bits it is a nested uniform
+// (Owen) scramble. N. Vegdahl's improved Laine-Karras hash (2021), as pbrt-v4's
+// FastOwenScrambler: Burley 2020's listing 2 left samples correlated (mcpt/sobol.py).
 uint laine_karras(uint x, uint seed) {
+    x ^= x * 0x3d20adeau;
     x += seed;
-    x ^= x * 0x6c50b47cu; x ^= x * 0xb82f1e52u; x ^= x * 0xc7afe638u; x ^= x * 0x8d22f6e6u;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
     return x;
 }
 
