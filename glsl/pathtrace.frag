@@ -6,6 +6,7 @@
 #include "bvh.glsl"
 #include "materials.glsl"
 #include "camera.glsl"
+#include "path_state.glsl"
 #if MCPT_NEE
 #include "lights.glsl"
 #endif
@@ -45,47 +46,48 @@ float power_heuristic(float a, float b) {
 // from, and decides ray offsets and which side a direction leaves on (a reflection must leave on
 // ng's side, a refraction on the other: with shading normals this is the light-leak check). ns,
 // the shading normal (interpolated vertex normals, else ng), is what the BSDF sees.
-vec3 radiance(Ray ray) {
-    vec3 L = vec3(0.0);
-    vec3 beta = vec3(1.0);
-    float pdf_bsdf_prev = 0.0;
-#if MCPT_DELTA
-    bool delta_prev = true;  // the camera ray: emitters it sees are not MIS-weighted
-#endif
-#if MCPT_MAT_DIELECTRIC && MCPT_RR
-    float eta_scale = 1.0;   // product of eta^2 crossed: roulette looks at beta * eta_scale (pbrt-v4)
-#endif
-    Hit h;
-    if (!trace_closest(ray, h)) return L;
-    for (int k = 1; ; ++k) {
+//
+// Returns true when the path is unfinished: where the driver limits loop iterations
+// (MCPT_CONTINUE, llvmpipe), a draw follows a path only while it has iterations to spare, then the
+// path's state goes to images and the next draw continues it (main() and mcpt/render.py), so the
+// limit no longer caps path length. P.ray is then the next ray to trace, for hit P.k.
+bool trace_path(inout Path P) {
+    for (;;) {
         LOOP_TICK();
+#if MCPT_CONTINUE
+        if (segment_spent()) return true;
+#endif
+        Hit h;
+        Ray ray = P.ray;
+        if (!trace_closest(ray, h)) return false;
+        int k = P.k;
         Material m = material(tri_material(h.tri));
         vec3 n = normalize(tri_normal_raw(h.tri));
         float cos_o = dot(n, ray.d);  // < 0: the ray arrives at the front side
 #if MCPT_ABSORPTION
         // Arriving at a dielectric's back side: the last segment ran inside it (Beer-Lambert).
-        if (m.type == MAT_DIELECTRIC && cos_o > 0.0) beta *= exp(-m.sigma_a * h.t);
+        if (m.type == MAT_DIELECTRIC && cos_o > 0.0) P.beta *= exp(-m.sigma_a * h.t);
 #endif
         if (cos_o < 0.0 && max(m.emission.r, max(m.emission.g, m.emission.b)) > 0.0) {
             float w = 1.0;
 #if MCPT_NEE
   #if MCPT_DELTA
-            if (!delta_prev) {
+            if (!P.delta_prev) {
   #else
             if (k > 1) {
   #endif
   #if MCPT_MIS
                 // Density with which NEE would have produced this point, as a solid angle.
                 float pdf_light = m.light_pdf_area * h.t * h.t / -cos_o;
-                w = power_heuristic(pdf_bsdf_prev, pdf_light);
+                w = power_heuristic(P.pdf_bsdf_prev, pdf_light);
   #else
                 w = 0.0;  // NEE-only: light is found by light sampling alone
   #endif
             }
 #endif
-            L += beta * m.emission * w;
+            P.L += P.beta * m.emission * w;
         }
-        if (k > MCPT_BOUNCES) return L;
+        if (k > MCPT_BOUNCES) return false;
         vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
         vec3 ns = ng;
         vec3 wo = -ray.d;
@@ -101,7 +103,7 @@ vec3 radiance(Ray ray) {
 #if MCPT_TEXTURES
         if (m.texture >= 0) m.albedo = texture_rgb(m.texture, tri_uv(h.tri, h.bary));
 #endif
-        if (material_black(m)) return L;  // pure emitter
+        if (material_black(m)) return false;  // pure emitter
         vec3 x = tri_point(h.tri, h.bary);
         vec3 xo = offset_ray(x, ng);
         int dim = DIM_BOUNCE(k);
@@ -134,33 +136,33 @@ vec3 radiance(Ray ray) {
   #if MCPT_MIS
                     w = power_heuristic(pdf_light, pdf_b);
   #endif
-                    L += beta * fc * material(tri_material(lt)).emission * (w / pdf_light);
+                    P.L += P.beta * fc * material(tri_material(lt)).emission * (w / pdf_light);
                 }
             }
         }
 #endif
         BsdfSample s;
-        if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return L;
+        if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return false;
 #if MCPT_SMOOTH_NORMALS || MCPT_MAT_DIELECTRIC
         // A reflection must leave on ng's side and a refraction on the other (see above).
-        if ((dot(s.wi, ng) > 0.0) == s.transmit) return L;
+        if ((dot(s.wi, ng) > 0.0) == s.transmit) return false;
 #endif
-        beta *= s.weight;
-        pdf_bsdf_prev = s.pdf;
+        P.beta *= s.weight;
+        P.pdf_bsdf_prev = s.pdf;
 #if MCPT_DELTA
-        delta_prev = s.delta;
+        P.delta_prev = s.delta;
 #endif
 #if MCPT_MAT_DIELECTRIC && MCPT_RR
-        eta_scale *= s.eta2;
+        P.eta_scale *= s.eta2;
 #endif
 #if MCPT_RR
         // Russian roulette on the throughput (unbiased: survivors are divided by q). Radiance
         // inside glass is scaled by 1/eta^2, which says nothing about the path's future: undone.
         if (k >= MCPT_RR_START) {
   #if MCPT_MAT_DIELECTRIC
-            vec3 rb = beta * eta_scale;
+            vec3 rb = P.beta * P.eta_scale;
   #else
-            vec3 rb = beta;
+            vec3 rb = P.beta;
   #endif
             // pbrt-v4's rule: only a path whose (eta-corrected) throughput fell below 1 plays,
             // and it survives with exactly that probability, with no cap below 1. A cap (we had
@@ -169,17 +171,26 @@ vec3 radiance(Ray ray) {
             // (issue #10: furnace at 1000 bounces gave 221 for 632.67).
             float q = max(rb.r, max(rb.g, rb.b));
             if (q < 1.0) {
-                if (rand_at(dim + DIM_RR) >= q) return L;
-                beta /= q;
+                if (rand_at(dim + DIM_RR) >= q) return false;
+                P.beta /= q;
             }
         }
 #endif
 #if MCPT_MAT_DIELECTRIC
         if (s.transmit) xo = offset_ray(x, -ng);
 #endif
-        ray = Ray(xo, s.wi);
-        if (!trace_closest(ray, h)) return L;
+        P.ray = Ray(xo, s.wi);
+        P.k = k + 1;
     }
+    return false;
+}
+
+// The value a sample adds to the image: L, or L clamped (biased, off unless --clamp).
+vec3 sample_value(vec3 L) {
+#if MCPT_CLAMP
+    float mx = max(L.r, max(L.g, L.b));
+    if (mx > u_clamp) L *= u_clamp / mx;
+#endif
     return L;
 }
 
@@ -188,14 +199,28 @@ void main() {
     ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
     ivec2 local = pixel - u_tile.xy;
     sampler_init(pixel.y * u_resolution.x + pixel.x, local.y * u_tile.z + local.x);
-    vec3 L = radiance(camera_ray(pixel, rand2_at(DIM_CAMERA)));
-#if MCPT_CLAMP
-    float mx = max(L.r, max(L.g, L.b));
-    if (mx > u_clamp) L *= u_clamp / mx;
+    Path P;
+#if MCPT_CONTINUE
+    if (u_continue != 0) {
+        if (!path_stored(frag)) discard;  // finished in an earlier draw
+        P = path_load(frag);
+    } else
 #endif
-    // Non-finite or cut short by llvmpipe's loop limit: dropped, and counted in alpha.
-    o_color = (non_finite(L) || loop_limit_reached()) ? vec4(0.0, 0.0, 0.0, 1.0) : vec4(L, 0.0);
+    P = camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+    // What earlier draws of this sample already added (telescoping: each draw adds
+    // value(L now) - value(L before), so the draws of a sample sum to value(L), squares likewise).
+    vec3 before = sample_value(P.L);
+    bool unfinished = trace_path(P);
+    vec3 after = sample_value(P.L);
+    // Non-finite or cut short by llvmpipe's loop limit: dropped (what earlier draws added is taken
+    // back) and counted in alpha.
+    bool dropped = non_finite(after) || loop_limit_reached();
+#if MCPT_CONTINUE
+    if (unfinished && !dropped) path_store(frag, P);
+    else if (u_continue != 0) path_clear(frag);
+#endif
+    o_color = dropped ? vec4(-before, 1.0) : vec4(after - before, 0.0);
 #if MCPT_VARIANCE
-    o_square = vec4(o_color.rgb * o_color.rgb, 0.0);
+    o_square = vec4(dropped ? -before * before : after * after - before * before, 0.0);
 #endif
 }

@@ -66,6 +66,7 @@ class Features:
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
+    continuation: bool = True       # with a loop limit: continue long paths in further draws
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
@@ -100,6 +101,11 @@ class Features:
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
         return dims_for(self.bounces)
+
+    @property
+    def continues(self) -> bool:
+        """Paths are split across draws (glsl/path_state.glsl): only where loops are capped."""
+        return self.continuation and self.loop_limit > 0
 
     @property
     def uploads_random(self) -> bool:
@@ -137,6 +143,7 @@ class Features:
             "MCPT_CLAMP": b(self.clamp),
             "MCPT_VARIANCE": b(self.variance),
             "MCPT_LOOP_LIMIT": self.loop_limit,
+            "MCPT_CONTINUE": b(self.continues),
         }
 
     def preamble(self) -> str:
@@ -153,7 +160,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False,
-           loop_limit: int = 0, sampler: str = "sobol") -> Features:
+           loop_limit: int = 0, sampler: str = "sobol", continuation: bool = True) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
@@ -179,4 +186,5 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         variance=variance,
         loop_limit=loop_limit,
         sampler=sampler,
+        continuation=continuation,
     )

@@ -25,6 +25,7 @@ from .camera import basis
 from .context import GLContext
 from .features import Features
 from .loader import World
+from .path_state import PathState
 from .sampler import RandomNumbers
 from .sobol import seed32
 from .tbo import GL_R32F, create_tbo
@@ -129,6 +130,7 @@ class Renderer:
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
                         for _ in range(2 if features.variance else 1)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
+        self.paths = PathState(ctx, self.width, self.height) if features.continues else None
         self.vao = ctx.vertex_array(self.program, [])
         f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, self.width, self.height)
         self._uniform("u_cam_forward", tuple(f))
@@ -171,6 +173,10 @@ class Renderer:
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         for t in self.tbos.values():
             t.bind()
+        if self.paths is not None:
+            self.paths.bind()
+            self._uniform("u_continue", 0)
+            draws_before = self.paths.draws
         rand_seconds = 0.0
         draws = 0
         t0 = time.perf_counter()
@@ -189,8 +195,14 @@ class Renderer:
                 self._uniform("u_rand_stride", w * h)
                 # GL rows count from the bottom; tiles are given from the top.
                 ctx.scissor = (x0, self.height - y0 - h, w, h)
+                if self.paths is not None:
+                    self.paths.reset_count()
                 self.vao.render(moderngl.TRIANGLES, vertices=3)
                 draws += 1
+                if self.paths is not None:  # long paths: further draws until all have ended
+                    self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
+                                      lambda v: self._uniform("u_continue", v),
+                                      limit=self.features.bounces + 2)
             if (p + 1) % chunk == 0 or p + 1 == spp:
                 total += self._read_and_clear()
                 if progress is not None:
@@ -206,8 +218,11 @@ class Renderer:
         if self.features.variance:
             var = np.maximum(total[1, ..., :3] / n - image**2, 0.0) * n / np.maximum(n - 1.0, 1.0)
             variance = (var / n).astype(np.float32)
+        setup = dict(self.setup)
+        if self.paths is not None:
+            setup["continuation_draws"] = self.paths.draws - draws_before
         return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
-                            dropped, seconds, rand_seconds, dict(self.setup))
+                            dropped, seconds, rand_seconds, setup)
 
     def _read_and_clear(self) -> np.ndarray:
         out = []
@@ -222,5 +237,7 @@ class Renderer:
             t.release()
         self.vao.release()
         self.fbo.release()
+        if self.paths is not None:
+            self.paths.release()
         for t in self.targets:
             t.release()

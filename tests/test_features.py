@@ -25,17 +25,22 @@ def test_info_json_reports_counts_features_buffers_and_limits():
     assert info["features"]["defines"]["MCPT_BOUNCES"] == 3
     buffers = info["buffers"]
     assert buffers["tris"] == 36 * 3 * 16  # 3 RGBA32UI texels per triangle
-    # Random numbers are sized by the dimensions this bounce count uses.
-    dims = info["features"]["defines"]["MCPT_RAND_DIMS"]
-    assert buffers["random_per_pass"] == 256 * 256 * dims * 4
+    # The default sampler (sobol) computes its numbers in the shader: nothing is uploaded per pass.
+    assert info["features"]["defines"]["MCPT_SAMPLER_SOBOL"] == 1
+    assert buffers["random_per_pass"] == 0
+    indep = json.loads(CliRunner().invoke(
+        main, ["info", str(CORNELL), "--json", "--bounces", "3", "--sampler", "independent"]).output)
+    # Independent numbers are sized by the dimensions this bounce count uses.
+    dims = indep["features"]["defines"]["MCPT_RAND_DIMS"]
+    assert indep["buffers"]["random_per_pass"] == 256 * 256 * dims * 4
     assert info["gl"]["max_texture_buffer_size"] >= 65536
     # A diffuse-only, flat-shaded scene uploads no normals and no UVs.
     assert not {"normals", "uvs", "texels"} & set(buffers)
 
 
 def test_fewer_bounces_need_fewer_random_numbers():
-    a = prepare(CORNELL, bounces=1, resolution=(16, 16))
-    b = prepare(CORNELL, bounces=8, resolution=(16, 16))
+    a = prepare(CORNELL, bounces=1, resolution=(16, 16), sampler="independent")
+    b = prepare(CORNELL, bounces=8, resolution=(16, 16), sampler="independent")
     try:
         assert a.features.random_dims < b.features.random_dims
         assert a.renderer.setup["random_bytes_per_pass"] < b.renderer.setup["random_bytes_per_pass"]
