@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from mcpt import stability  # noqa: E402
 
 GROUP_ORDER = ["furnace", "scale", "offset", "watertight", "lights", "geometry", "limits",
-               "non-finite", "determinism", "llvmpipe"]
+               "non-finite", "determinism", "llvmpipe", "deep"]
 
 
 def main(argv=None) -> int:
