@@ -2,13 +2,17 @@
 
 Each pass renders one sample per pixel into an RGBA32F target with additive blending; every
 ``chunk`` passes the float32 target is read back, added into a float64 sum and cleared, so the
-average never loses precision, however many passes (the thesis averaged 8-bit images). Each pass
-gets fresh random numbers (mcpt/sampler.py) in one of two buffer textures used in turn, so
-writing the next pass's numbers never waits for the draw that reads the previous ones.
+average never loses precision, however many passes (the thesis averaged 8-bit images).
 
-Large images are split into tiles (scissored draws): this bounds the random-number buffer by
-GL_MAX_TEXTURE_BUFFER_SIZE and keeps each draw short on a real GPU, whose driver watchdog
-would kill a draw that runs for seconds.
+Random numbers (mcpt/sampler.py): with ``sobol`` (default) the shader computes them from the
+seed, the pixel and the pass index, set as one uniform: no host work and no upload per pass.
+With ``independent`` each pass gets fresh numbers in one of two buffer textures used in turn, so
+writing the next pass's numbers never waits for the draw that reads the previous ones; large
+images are then split into tiles (scissored draws), which bounds that buffer by
+GL_MAX_TEXTURE_BUFFER_SIZE.
+
+Where the driver caps loop iterations (llvmpipe), paths still running when a draw has spent its
+share are stored and continued by further draws of the same pass (mcpt/path_state.py).
 """
 
 from __future__ import annotations
