@@ -1,8 +1,9 @@
 """Sobol' against independent numbers, measured side by side (issue #14 part 3).
 
 ``python -m bench.samplers [--rounds N] [--spp 64] [--resolution 256] [--baseline DIR]``:
-renders scenes/cornell-box.yaml (8 bounces) with both samplers, and with sobol without path
-continuation (``sobol-1draw``), alternating (A, B, C, A, B, C, ...) in one process, and prints per
+renders scenes/cornell-box.yaml (8 bounces) with both samplers, with sobol taking 1 or 8 samples
+per draw instead of 4 (``sobol-1spd``, ``sobol-8spd``: path regeneration) and without path
+continuation (``sobol-nocont``), alternating (A, B, C, ...) in one process, and prints per
 round paths/s, host seconds per pass spent making random numbers, and relMSE against the
 Mitsuba 3 reference (../shared/scenes-ref/cornell/reference.exr); then an error-vs-spp sweep per
 sampler with the fitted slope of log relMSE against log spp. ``--baseline DIR`` adds another
@@ -33,15 +34,22 @@ def main(argv=None) -> dict:
     ap.add_argument("--sweep", default="4,16,64,256", help="spp list of the error sweep ('' = none)")
     ap.add_argument("--json", default=None, help="write the records here")
     ap.add_argument("--baseline", default=None, help="another mcpt checkout to alternate with")
+    ap.add_argument("--variants", default="", help="comma-separated subset of the sides")
     a = ap.parse_args(argv)
     n = a.resolution
     ref, _ = read_exr(scenes.cornell_reference())
     ref = common.downsample(np.asarray(ref, np.float32)[..., :3], n, n)
     scene = common.ROOT / "scenes" / "cornell-box.yaml"
     samplers = ("sobol", "independent")
-    variants = {"sobol": {"sampler": "sobol"}, "independent": {"sampler": "independent"},
-                "sobol-1draw": {"sampler": "sobol", "feature_flags": {"continuation": False}}}
-    ps = {s: prepare(scene, resolution=(n, n), bounces=8, **kw) for s, kw in variants.items()}
+    # name: (prepare() arguments, render() arguments)
+    variants = {"sobol": ({"sampler": "sobol"}, {}),
+                "independent": ({"sampler": "independent"}, {}),
+                "sobol-1spd": ({"sampler": "sobol"}, {"samples_per_draw": 1}),
+                "sobol-8spd": ({"sampler": "sobol"}, {"samples_per_draw": 8}),
+                "sobol-nocont": ({"sampler": "sobol", "feature_flags": {"continuation": False}}, {})}
+    if a.variants:
+        variants = {k: v for k, v in variants.items() if k in a.variants.split(",")}
+    ps = {s: prepare(scene, resolution=(n, n), bounces=8, **kw) for s, (kw, _) in variants.items()}
     for s in variants:  # warm-up: JIT and first-touch allocations outside the timing
         ps[s].renderer.render(1, seed=0)
     sides = list(variants) + (["baseline"] if a.baseline else [])
@@ -53,7 +61,7 @@ def main(argv=None) -> dict:
                 row = {"round": r, "sampler": s, "spp": a.spp, **got,
                        "relmse": common.relmse(np.load(got.pop("image_file")), ref)}
             else:
-                res = ps[s].renderer.render(a.spp, seed=100 + r)
+                res = ps[s].renderer.render(a.spp, seed=100 + r, **variants[s][1])
                 row = {"round": r, "sampler": s, "spp": a.spp,
                        "paths_per_second": res.paths_per_second,
                        "render_seconds": res.render_seconds,

@@ -30,23 +30,25 @@ bool segment_spent() { return g_loop_iterations >= SEGMENT_TICKS; }
 layout(binding = 0, rgba32f) uniform image2D u_state0;  // ray.o, k
 layout(binding = 1, rgba32f) uniform image2D u_state1;  // ray.d, pdf_bsdf_prev
 layout(binding = 2, rgba32f) uniform image2D u_state2;  // beta, eta_scale
-layout(binding = 3, rgba32f) uniform image2D u_state3;  // L, delta_prev
+layout(binding = 3, rgba32f) uniform image2D u_state3;  // L, 2 * sample j of the draw + delta_prev
 layout(std430, binding = 0) buffer PathCount { uint n_unfinished; };  // reset by the host
 uniform int u_continue;  // 0: start camera paths; 1: continue the stored ones
 
 bool path_stored(ivec2 px) { return imageLoad(u_state0, px).w != 0.0; }
 
-Path path_load(ivec2 px) {
+Path path_load(ivec2 px, out int j) {
     vec4 s0 = imageLoad(u_state0, px), s1 = imageLoad(u_state1, px);
     vec4 s2 = imageLoad(u_state2, px), s3 = imageLoad(u_state3, px);
-    return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, s3.w != 0.0, s2.w);
+    int w = int(s3.w);
+    j = w >> 1;
+    return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, (w & 1) != 0, s2.w);
 }
 
-void path_store(ivec2 px, Path P) {
+void path_store(ivec2 px, Path P, int j) {
     imageStore(u_state0, px, vec4(P.ray.o, float(P.k)));
     imageStore(u_state1, px, vec4(P.ray.d, P.pdf_bsdf_prev));
     imageStore(u_state2, px, vec4(P.beta, P.eta_scale));
-    imageStore(u_state3, px, vec4(P.L, P.delta_prev ? 1.0 : 0.0));
+    imageStore(u_state3, px, vec4(P.L, float(2 * j + (P.delta_prev ? 1 : 0))));
     atomicAdd(n_unfinished, 1u);
 }
 

@@ -47,16 +47,10 @@ float power_heuristic(float a, float b) {
 // ng's side, a refraction on the other: with shading normals this is the light-leak check). ns,
 // the shading normal (interpolated vertex normals, else ng), is what the BSDF sees.
 //
-// Returns true when the path is unfinished: where the driver limits loop iterations
-// (MCPT_CONTINUE, llvmpipe), a draw follows a path only while it has iterations to spare, then the
-// path's state goes to images and the next draw continues it (main() and mcpt/render.py), so the
-// limit no longer caps path length. P.ray is then the next ray to trace, for hit P.k.
-bool trace_path(inout Path P) {
-    for (;;) {
-        LOOP_TICK();
-#if MCPT_CONTINUE
-        if (segment_spent()) return true;
-#endif
+// One step: trace P.ray, gather what hit P.k adds and scatter. Returns false when the path has
+// ended, else P.ray is the next ray to trace, for hit P.k.
+bool path_step(inout Path P) {
+    {
         Hit h;
         Ray ray = P.ray;
         if (!trace_closest(ray, h)) return false;
@@ -182,7 +176,7 @@ bool trace_path(inout Path P) {
         P.ray = Ray(xo, s.wi);
         P.k = k + 1;
     }
-    return false;
+    return true;
 }
 
 // The value a sample adds to the image: L, or L clamped (biased, off unless --clamp).
@@ -194,33 +188,87 @@ vec3 sample_value(vec3 L) {
     return L;
 }
 
+// Path regeneration: a draw takes u_samples samples per pixel (sample indices u_sample_index +
+// j, sobol only; 1 for independent numbers), in ONE loop of bounces: a lane whose path has ended
+// starts its next camera path in the same iteration. llvmpipe runs 8 lanes until the last one is
+// done, so a loop per sample would leave a lane idle while its neighbours finish longer paths.
+//
+// Where the driver limits loop iterations (MCPT_CONTINUE, llvmpipe), a draw follows a pixel's
+// paths only while it has iterations to spare; then the path (and j) goes to images and the
+// next draw continues it (glsl/path_state.glsl, mcpt/render.py), so the limit no longer caps
+// path length. Each draw adds to the accumulation target what it gathered: the values of the
+// samples that ended in it, minus what earlier draws already added for the one they continued
+// (telescoping, squares likewise), so a sample's draws sum to its value.
+uniform int u_samples;
+
 void main() {
     ivec2 frag = ivec2(gl_FragCoord.xy);
     ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
     ivec2 local = pixel - u_tile.xy;
-    sampler_init(pixel.y * u_resolution.x + pixel.x, local.y * u_tile.z + local.x);
+    int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
     Path P;
+    int j = 0;
 #if MCPT_CONTINUE
     if (u_continue != 0) {
         if (!path_stored(frag)) discard;  // finished in an earlier draw
-        P = path_load(frag);
+        P = path_load(frag, j);
+        sampler_init(pix, tile_pix, j);
     } else
 #endif
-    P = camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
-    // What earlier draws of this sample already added (telescoping: each draw adds
-    // value(L now) - value(L before), so the draws of a sample sum to value(L), squares likewise).
-    vec3 before = sample_value(P.L);
-    bool unfinished = trace_path(P);
-    vec3 after = sample_value(P.L);
-    // Non-finite or cut short by llvmpipe's loop limit: dropped (what earlier draws added is taken
-    // back) and counted in alpha.
-    bool dropped = non_finite(after) || loop_limit_reached();
+    {
+        sampler_init(pix, tile_pix, 0);
+        P = camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+    }
+    vec3 before = sample_value(P.L);  // what earlier draws added for this sample
+    vec3 sum = vec3(0.0), sum2 = vec3(0.0);
+    float dropped = 0.0;
+    bool unfinished = false;
+    for (;;) {
+        LOOP_TICK();
 #if MCPT_CONTINUE
-    if (unfinished && !dropped) path_store(frag, P);
+        if (segment_spent()) { unfinished = true; break; }
+#endif
+        if (path_step(P)) continue;
+        vec3 v = sample_value(P.L);
+        // Non-finite or cut short by llvmpipe's loop limit: dropped (what earlier draws added
+        // for it is taken back) and counted in alpha.
+        if (non_finite(v) || loop_limit_reached()) {
+            sum -= before; sum2 -= before * before; dropped += 1.0;
+        } else {
+            sum += v - before; sum2 += v * v - before * before;
+        }
+        before = vec3(0.0);
+        if (++j >= u_samples) break;
+        sampler_init(pix, tile_pix, j);
+        P = camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+    }
+    // llvmpipe's limiter ended the loop itself (a bounce took more than the rest of the budget,
+    // or MCPT_CONTINUE is off): the sample in flight and those not started are dropped, counted.
+    // (The compiler knows how the loop's breaks leave j, so the counter, not j, tells.)
+    if (!unfinished && loop_limit_reached()) {
+        sum -= before; sum2 -= before * before;
+        dropped += float(u_samples - j);
+        before = vec3(0.0);
+    }
+    if (unfinished) {
+        vec3 v = sample_value(P.L);
+        if (non_finite(v)) {  // not worth continuing: dropped now
+            sum -= before; sum2 -= before * before; dropped += 1.0;
+            unfinished = ++j < u_samples;
+            if (unfinished) {
+                sampler_init(pix, tile_pix, j);
+                P = camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+            }
+        } else {
+            sum += v - before; sum2 += v * v - before * before;
+        }
+    }
+#if MCPT_CONTINUE
+    if (unfinished) path_store(frag, P, j);
     else if (u_continue != 0) path_clear(frag);
 #endif
-    o_color = dropped ? vec4(-before, 1.0) : vec4(after - before, 0.0);
+    o_color = vec4(sum, dropped);
 #if MCPT_VARIANCE
-    o_square = vec4(dropped ? -before * before : after * after - before * before, 0.0);
+    o_square = vec4(sum2, 0.0);
 #endif
 }

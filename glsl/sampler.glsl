@@ -9,8 +9,9 @@
 
 #if MCPT_SAMPLER_SOBOL
 #include "sobol.glsl"
-// `pixel` over the whole image, so tiling never changes a pixel's numbers.
-void sampler_init(int pixel, int tile_pixel) { sobol_init(pixel, u_sample_index); }
+// `pixel` over the whole image, so tiling never changes a pixel's numbers; sample j of the draw
+// (path regeneration, glsl/pathtrace.frag) is sample u_sample_index + j of the pixel.
+void sampler_init(int pixel, int tile_pixel, int j) { sobol_init(pixel, u_sample_index + uint(j)); }
 float rand_at(int dim) { return sobol_1d(dim); }
 vec2 rand2_at(int dim) { return sobol_2d(dim); }
 #else
@@ -25,7 +26,8 @@ layout(binding = 5) uniform samplerBuffer u_random;  // R32F, uniform in [0, 1)
 uniform int u_rand_stride;
 int g_rand_pixel;
 
-void sampler_init(int pixel, int tile_pixel) { g_rand_pixel = tile_pixel; }
+// One sample per draw (j = 0): the numbers are uploaded per pass.
+void sampler_init(int pixel, int tile_pixel, int j) { g_rand_pixel = tile_pixel; }
 
 // numpy's float32 generator: k * 2^-24, never 1.0.
 float rand_at(int dim) { return texelFetch(u_random, dim * u_rand_stride + g_rand_pixel).r; }

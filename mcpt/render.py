@@ -37,6 +37,10 @@ from .tbo import GL_R32F, create_tbo
 # Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
 MAX_RANDOM_PER_TILE = 1 << 26
 
+# Samples per pixel one draw takes with the sobol sampler (path regeneration): lanes whose path
+# ended start the next one instead of idling (measured: bench/samplers.py).
+SAMPLES_PER_DRAW = 4
+
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 _ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
@@ -99,6 +103,7 @@ class Renderer:
     def __init__(self, gl: GLContext, world: World, features: Features, *,
                  max_random_per_tile: int = MAX_RANDOM_PER_TILE):
         self.gl, self.world, self.features = gl, world, features
+        self.samples_per_draw = SAMPLES_PER_DRAW
         ctx = gl.ctx
         cam = world.scene.camera
         self.width, self.height = cam.width, cam.height
@@ -159,8 +164,9 @@ class Renderer:
             self.program[name].value = value
 
     def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64,
-               clamp: float | None = None) -> RenderResult:
-        """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``."""
+               clamp: float | None = None, samples_per_draw: int | None = None) -> RenderResult:
+        """Render ``spp`` samples per pixel with random numbers from ``seed``;
+        ``progress(done, total)``. ``chunk``: draws between float64 read-backs."""
         if spp < 1:
             raise RenderError(f"spp must be >= 1, got {spp}")
         ctx = self.gl.ctx
@@ -184,7 +190,14 @@ class Renderer:
         rand_seconds = 0.0
         draws = 0
         t0 = time.perf_counter()
-        for p in range(spp):
+        # Sobol: several samples per pixel per draw (path regeneration, glsl/pathtrace.frag);
+        # independent numbers are uploaded for one sample per pass.
+        spd = 1 if upload else max(1, int(samples_per_draw or self.samples_per_draw))
+        self._uniform("u_samples", 1)
+        done, p = 0, 0
+        while done < spp:
+            n_draw = min(spd, spp - done)
+            self._uniform("u_samples", n_draw)
             for ti, (x0, y0, w, h) in enumerate(self.tiles):
                 if upload:
                     tr = time.perf_counter()
@@ -194,7 +207,7 @@ class Renderer:
                     buf.write(self._numbers)
                     buf.bind()
                 else:
-                    self._uniform("u_sample_index", p)  # sobol: the pass is the sample index
+                    self._uniform("u_sample_index", done)  # sobol: first sample index of the draw
                 self._uniform("u_tile", (x0, y0, w, h))
                 self._uniform("u_rand_stride", w * h)
                 # GL rows count from the bottom; tiles are given from the top.
@@ -206,11 +219,13 @@ class Renderer:
                 if self.paths is not None:  # long paths: further draws until all have ended
                     self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
                                       lambda v: self._uniform("u_continue", v),
-                                      limit=self.features.bounces + 2)
-            if (p + 1) % chunk == 0 or p + 1 == spp:
+                                      limit=n_draw * (self.features.bounces + 2))
+            done += n_draw
+            p += 1
+            if p % chunk == 0 or done == spp:
                 total += self._read_and_clear()
                 if progress is not None:
-                    progress(p + 1, spp)
+                    progress(done, spp)
         ctx.scissor = None
         ctx.disable(moderngl.BLEND)
         seconds = time.perf_counter() - t0
