@@ -117,3 +117,37 @@ def test_exr_output_is_linear_float32_with_the_render_metadata(tmp_path):
     # Red wall on the left (scene.json: image x axis points to the viewer's right).
     left, right = bgr[10:22, 6:9].mean((0, 1)), bgr[10:22, -9:-6].mean((0, 1))
     assert left[2] > left[1] and right[1] > right[2]
+
+
+def test_samples_per_draw_do_not_change_the_image():
+    """Path regeneration (several sobol samples per pixel per draw) draws sample indices
+    first + j: the same samples as one per draw, so the same image up to float32 summation."""
+    p = prepare(CORNELL, resolution=(32, 32), feature_flags={"variance": True})
+    try:
+        one = p.renderer.render(8, seed=3, samples_per_draw=1)
+        four = p.renderer.render(8, seed=3, samples_per_draw=4)
+        three = p.renderer.render(8, seed=3, samples_per_draw=3)  # draws of 3, 3 and 2
+    finally:
+        p.renderer.release()
+    for other in (four, three):
+        assert other.dropped_samples == one.dropped_samples == 0
+        np.testing.assert_allclose(other.image, one.image, rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(other.variance, one.variance, rtol=1e-3, atol=1e-5)
+
+
+def test_paths_longer_than_the_loop_limit_are_continued_not_dropped():
+    """3000 bounces without roulette in the furnace of scenes/furnace.yaml (albedo 0.8) take
+    ~400 000 loop iterations a path, six times llvmpipe's limit: the paths are continued by
+    further draws (one draw each used to cut them all, and drop every sample)."""
+    scene = load_scene(FURNACE).with_overrides(resolution=(2, 2))
+    p = prepare(scene, bounces=3000, feature_flags={"russian_roulette": False})
+    if p.features.loop_limit == 0:  # pragma: no cover - a GPU without a loop limit
+        pytest.skip("this driver has no loop limit")
+    try:
+        res = p.renderer.render(2, seed=1)
+    finally:
+        p.renderer.release()
+    expected = (1 - 0.8 ** 3001) / (1 - 0.8)  # = 5
+    assert res.dropped_samples == 0
+    assert res.setup["continuation_draws"] > 2
+    np.testing.assert_allclose(res.image, expected, rtol=0.05)  # MIS noise: ~1 % per sample
