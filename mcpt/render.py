@@ -194,15 +194,21 @@ class Renderer:
         # independent numbers are uploaded for one sample per pass.
         spd = 1 if upload else max(1, int(samples_per_draw or self.samples_per_draw))
         self._uniform("u_samples", 1)
+
+        def stage(pass_index: int, tile: int) -> float:
+            """Independent numbers of (pass, tile) into the staging array; host seconds."""
+            tr = time.perf_counter()
+            streams[tile].fill(pass_index, self._numbers)  # a smaller last tile leaves a tail
+            return time.perf_counter() - tr
+
+        if upload:
+            rand_seconds += stage(0, 0)
         done, p = 0, 0
         while done < spp:
             n_draw = min(spd, spp - done)
             self._uniform("u_samples", n_draw)
             for ti, (x0, y0, w, h) in enumerate(self.tiles):
-                if upload:
-                    tr = time.perf_counter()
-                    streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
-                    rand_seconds += time.perf_counter() - tr
+                if upload:  # staged during the previous draw (glBufferSubData copies them)
                     buf = self.random[draws % 2]
                     buf.write(self._numbers)
                     buf.bind()
@@ -216,6 +222,10 @@ class Renderer:
                     self.paths.reset_count()
                 self.vao.render(moderngl.TRIANGLES, vertices=3)
                 draws += 1
+                if upload:  # the next draw's numbers, made while this one renders
+                    nxt = (p, ti + 1) if ti + 1 < len(self.tiles) else (p + 1, 0)
+                    if nxt[0] < spp:
+                        rand_seconds += stage(*nxt)
                 if self.paths is not None:  # long paths: further draws until all have ended
                     self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
                                       lambda v: self._uniform("u_continue", v),
