@@ -40,6 +40,20 @@ SAMPLING_MODES = ("mis", "nee", "bsdf")
 LLVMPIPE_LOOP_LIMIT = 65535
 
 
+def max_loop_iterations(bounces: int, n_triangles: int) -> int:
+    """An upper bound on the loop iterations of one path: per ray at most every node and every
+    triangle once (a binary tree has < 2 nodes per triangle), a closest-hit and a shadow ray per
+    vertex, plus the bounce loop itself."""
+    return (bounces + 1) * (2 * 3 * max(n_triangles, 1) + 1)
+
+
+def needs_continuation(loop_limit: int, bounces: int, n_triangles: int) -> bool:
+    """Whether a path may outrun one draw's share of the loop limit (glsl/path_state.glsl). When
+    it cannot (the Cornell box: 36 triangles, 8 bounces, < 2 000 iterations), the continuation
+    code and its per-draw read-back are left out."""
+    return loop_limit > 0 and max_loop_iterations(bounces, n_triangles) > loop_limit // 4
+
+
 def loop_limit_for(renderer: str) -> int:
     """The loop-iteration limit of a GL renderer (GL_RENDERER string); 0 when it has none."""
     return LLVMPIPE_LOOP_LIMIT if "llvmpipe" in renderer.lower() else 0
@@ -67,6 +81,7 @@ class Features:
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
     continuation: bool = True       # with a loop limit: continue long paths in further draws
+                                    # (derive() leaves it off where no path can need it)
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
@@ -186,5 +201,5 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         variance=variance,
         loop_limit=loop_limit,
         sampler=sampler,
-        continuation=continuation,
+        continuation=continuation and needs_continuation(loop_limit, bounces, n_triangles),
     )

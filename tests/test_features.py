@@ -82,3 +82,17 @@ def test_every_shipped_scene_compiles_only_what_it_uses(scene_file):
             assert (f"{kind}_sample" in text) == (kind in used), kind
     finally:
         p.renderer.release()
+
+
+def test_continuation_is_compiled_only_where_a_path_can_outrun_a_draw():
+    from mcpt.features import LLVMPIPE_LOOP_LIMIT, derive, needs_continuation
+
+    # The Cornell box (36 triangles, 8 bounces) cannot reach a quarter of llvmpipe's limit.
+    assert not needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 36)
+    assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 1000, 36)
+    assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 100_000)
+    assert not needs_continuation(0, 100_000, 100_000)  # no limit (GPUs): never
+    kw = dict(n_emissive=2, material_types={"diffuse"}, loop_limit=LLVMPIPE_LOOP_LIMIT)
+    assert derive(bounces=1000, n_triangles=36, **kw).defines()["MCPT_CONTINUE"] == 1
+    assert derive(bounces=8, n_triangles=36, **kw).defines()["MCPT_CONTINUE"] == 0
+    assert derive(bounces=1000, n_triangles=36, continuation=False, **kw).defines()["MCPT_CONTINUE"] == 0
