@@ -40,6 +40,14 @@ SAMPLING_MODES = ("mis", "nee", "bsdf")
 LLVMPIPE_LOOP_LIMIT = 65535
 
 
+# Samples per pixel one draw takes with the sobol sampler (path regeneration, glsl/pathtrace.frag):
+# lanes whose path ended start the next one instead of idling. 4 measured 1.3x the paths/s of 1 on
+# the Cornell box (bench/samplers.py); 8 was no faster. A draw never takes more than the maximum,
+# which the continuation decision below assumes.
+SAMPLES_PER_DRAW = 4
+MAX_SAMPLES_PER_DRAW = 8
+
+
 def max_loop_iterations(bounces: int, n_triangles: int) -> int:
     """An upper bound on the loop iterations of one path: per ray at most every node and every
     triangle once (a binary tree has < 2 nodes per triangle), a closest-hit and a shadow ray per
@@ -49,9 +57,10 @@ def max_loop_iterations(bounces: int, n_triangles: int) -> int:
 
 def needs_continuation(loop_limit: int, bounces: int, n_triangles: int) -> bool:
     """Whether a path may outrun one draw's share of the loop limit (glsl/path_state.glsl). When
-    it cannot (the Cornell box: 36 triangles, 8 bounces, < 2 000 iterations), the continuation
+    it cannot (the Cornell box: 36 triangles, 8 bounces, < 2 000 iterations a path), the continuation
     code and its per-draw read-back are left out."""
-    return loop_limit > 0 and max_loop_iterations(bounces, n_triangles) > loop_limit // 4
+    worst = MAX_SAMPLES_PER_DRAW * max_loop_iterations(bounces, n_triangles)  # one draw's paths
+    return loop_limit > 0 and worst > loop_limit // 4
 
 
 def loop_limit_for(renderer: str) -> int:

@@ -27,7 +27,7 @@ import numpy as np
 from . import shader
 from .camera import basis
 from .context import GLContext
-from .features import Features
+from .features import MAX_SAMPLES_PER_DRAW, SAMPLES_PER_DRAW, Features
 from .loader import World
 from .path_state import PathState
 from .sampler import RandomNumbers
@@ -36,10 +36,6 @@ from .tbo import GL_R32F, create_tbo
 
 # Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
 MAX_RANDOM_PER_TILE = 1 << 26
-
-# Samples per pixel one draw takes with the sobol sampler (path regeneration): lanes whose path
-# ended start the next one instead of idling (measured: bench/samplers.py).
-SAMPLES_PER_DRAW = 4
 
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
@@ -192,7 +188,8 @@ class Renderer:
         t0 = time.perf_counter()
         # Sobol: several samples per pixel per draw (path regeneration, glsl/pathtrace.frag);
         # independent numbers are uploaded for one sample per pass.
-        spd = 1 if upload else max(1, int(samples_per_draw or self.samples_per_draw))
+        spd = 1 if upload else max(1, min(int(samples_per_draw or self.samples_per_draw),
+                                          MAX_SAMPLES_PER_DRAW))
         self._uniform("u_samples", 1)
 
         def stage(pass_index: int, tile: int) -> float:
