@@ -3,7 +3,9 @@
 ``python -m bench.samplers [--rounds N] [--spp 64] [--resolution 256] [--baseline DIR]``:
 renders scenes/cornell-box.yaml (8 bounces) with both samplers, with sobol taking 1 or 8 samples
 per draw instead of 4 (``sobol-1spd``, ``sobol-8spd``: path regeneration) and without path
-continuation (``sobol-nocont``), alternating (A, B, C, ...) in one process, and prints per
+continuation (``sobol-nocont``; the same program as ``sobol`` on this scene, whose paths cannot
+need continuing, see features.needs_continuation), alternating (A, B, C, ...) in one process
+(``--variants`` picks some), and prints per
 round paths/s, host seconds per pass spent making random numbers, and relMSE against the
 Mitsuba 3 reference (../shared/scenes-ref/cornell/reference.exr); then an error-vs-spp sweep per
 sampler with the fitted slope of log relMSE against log spp. ``--baseline DIR`` adds another
@@ -47,7 +49,7 @@ def main(argv=None) -> dict:
                 "sobol-1spd": ({"sampler": "sobol"}, {"samples_per_draw": 1}),
                 "sobol-8spd": ({"sampler": "sobol"}, {"samples_per_draw": 8}),
                 "sobol-nocont": ({"sampler": "sobol", "feature_flags": {"continuation": False}}, {})}
-    if a.variants:
+    if a.variants:  # e.g. --variants sobol,independent,sobol-1spd
         variants = {k: v for k, v in variants.items() if k in a.variants.split(",")}
     ps = {s: prepare(scene, resolution=(n, n), bounces=8, **kw) for s, (kw, _) in variants.items()}
     for s in variants:  # warm-up: JIT and first-touch allocations outside the timing
