@@ -18,12 +18,13 @@ from .options import render_options
               help="Also render one pass with traversal counters: node steps, triangle tests and "
                    "texel fetches per ray.")
 @reports_errors
-def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, as_json, counters):
+def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, as_json, counters):
     """Counts, BVH statistics, features, buffer sizes and GL limits of SCENE_FILE."""
     from mcpt.api import describe
 
     report = describe(scene_file, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
-                      gl_backend=gl_backend, features_mode=features_mode, counters=counters)
+                      gl_backend=gl_backend, features_mode=features_mode, sampler=sampler,
+                      counters=counters)
     if as_json:
         click.echo(json.dumps(report, indent=2))
         return

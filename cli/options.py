@@ -8,6 +8,7 @@ import re
 import click
 
 from mcpt.gpu.context import BACKENDS
+from mcpt.gpu.features import SAMPLERS
 
 
 def parse_resolution(ctx, param, value):
@@ -46,6 +47,9 @@ def render_options(fn):
         click.option("--features", "features_mode", type=click.Choice(["scene", "all"]), default="scene",
                      show_default=True,
                      help="'scene': compile only what the scene uses; 'all': the full uber-shader."),
+        click.option("--sampler", type=click.Choice(SAMPLERS), default=SAMPLERS[0], show_default=True,
+                     help="Random numbers: 'sobol' padded Owen-scrambled Sobol' (converges faster, "
+                          "computed on the GPU); 'independent' uniform numbers uploaded every pass."),
     ]):
         fn = opt(fn)
     return fn

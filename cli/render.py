@@ -49,9 +49,9 @@ from .options import finite, positive_finite, render_options
 @click.option("--json", "as_json", is_flag=True, help="Print the render summary as JSON on stdout.")
 @click.option("--quiet", is_flag=True, help="No progress output.")
 @reports_errors
-def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, outputs, overrides,
-           exposure, clamp, time_budget, checkpoint, resume, workers, scheduler, progress_mode,
-           as_json, quiet):
+def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs,
+           overrides, exposure, clamp, time_budget, checkpoint, resume, workers, scheduler,
+           progress_mode, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     started = time.perf_counter()
     from mcpt.farm.session import Options, run
@@ -66,7 +66,7 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
         require_dask()
     prog = progress_mod.make(progress_mode, quiet)
     opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
-                   gl_backend=gl_backend, features_mode=features_mode, clamp=clamp,
+                   gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,
                    exposure=exposure, time_budget=time_budget, checkpoint=checkpoint, resume=resume,
                    overrides=tuple(overrides), workers=workers, scheduler=scheduler, progress=prog,
                    started=started)

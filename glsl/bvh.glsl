@@ -18,7 +18,7 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 #endif
 // Debug counters (MCPT_COUNTERS, mcpt/gpu/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS
-layout(std430, binding = 0) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
+layout(std430, binding = 1) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
 uint g_iter = 0u, g_fetch = 0u, g_node = 0u, g_tri = 0u;
 #define BVH_COUNT(it, f) (g_iter += uint(it), g_fetch += uint(f))
 #define BVH_COUNT_NODE() (g_node++)

@@ -8,10 +8,12 @@ struct Ray { vec3 o; vec3 d; };
 // llvmpipe's loop limiter stops the loops of a shader invocation once they have run 65535
 // iterations in total, silently (issue #6 stability suite), and the compiler has already folded
 // away any "did the loop end normally" test. So where the renderer is llvmpipe, MCPT_LOOP_LIMIT
-// is 65535 and every loop of the path tracer ticks a counter; a sample whose counter reaches
-// 3/4 of the limit is dropped and counted like a non-finite one (glsl/pathtrace.frag main). The
-// limiter counts per SIMD batch, so a lane cut short early by slower neighbours can still slip
-// through: the check catches the common case (deep paths), not every one.
+// is 65535 and every loop of the path tracer ticks a counter. A draw stops following a path at a
+// quarter of the limit and a later draw continues it (MCPT_CONTINUE, glsl/path_state.glsl), so
+// the limit does not cap path length; a sample whose counter still reaches 3/4 of the limit (one
+// bounce that took half of it, or continuation switched off) is dropped and counted like a
+// non-finite one (glsl/pathtrace.frag main). The limiter counts per SIMD batch, so a lane cut
+// short early by slower neighbours can still slip through: the check catches the common case.
 // 0 (real GPUs, no limiter): no counter, no cost.
 #ifndef MCPT_LOOP_LIMIT
 #define MCPT_LOOP_LIMIT 0

@@ -40,7 +40,7 @@ class Prepared:
 
 def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
             gl_backend=None, features_mode: str = "scene", clamp: float | None = None,
-            feature_flags: dict | None = None) -> Prepared:
+            feature_flags: dict | None = None, sampler: str | None = None) -> Prepared:
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
@@ -48,6 +48,8 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     gl = shared_context(gl_backend)
     world = load_world(scene)
     flags = {"loop_limit": loop_limit_for(gl.renderer), **(feature_flags or {})}
+    if sampler is not None:
+        flags["sampler"] = sampler
     feats = for_world(world, clamp=clamp is not None, **flags)
     if features_mode == "all":
         feats = feats.everything()
@@ -71,13 +73,14 @@ def metadata(p: Prepared, result: RenderResult) -> dict:
 
 
 def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolution=None,
-                 gl_backend=None, features_mode="scene", clamp=None, exposure=0.0, progress=None):
+                 gl_backend=None, features_mode="scene", clamp=None, exposure=0.0, progress=None,
+                 sampler=None):
     """Render a scene (file or Scene), write each of ``outputs``; returns (result, metadata)."""
     outputs = [outputs] if isinstance(outputs, (str, Path)) else list(outputs)
     for output in outputs:
         check_output_path(output)
     p = prepare(scene, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
-                gl_backend=gl_backend, features_mode=features_mode, clamp=clamp)
+                gl_backend=gl_backend, features_mode=features_mode, clamp=clamp, sampler=sampler)
     if progress is not None and hasattr(progress, "pixels"):
         progress.pixels = p.scene.camera.width * p.scene.camera.height
     rs = p.scene.render

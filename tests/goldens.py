@@ -145,13 +145,14 @@ def scene_digest(scene_file: str | Path) -> str:
     return h.hexdigest()
 
 
-def render_spec(spec: GoldenSpec, spp: int, seed: int, gl_backend: str | None = None):
+def render_spec(spec: GoldenSpec, spp: int, seed: int, gl_backend: str | None = None,
+                sampler: str | None = None):
     """Render a golden's scene; returns (mean, per-sample variance, metadata)."""
     from mcpt.api import prepare
 
     scene_file = ROOT / spec.scene
     p = prepare(scene_file, resolution=spec.resolution, bounces=spec.bounces, gl_backend=gl_backend,
-                feature_flags={"variance": True}, clamp=spec.clamp)
+                feature_flags={"variance": True}, clamp=spec.clamp, sampler=sampler)
     try:
         res = p.renderer.render(spp, seed)
     finally:
@@ -160,6 +161,7 @@ def render_spec(spec: GoldenSpec, spp: int, seed: int, gl_backend: str | None = 
         "name": spec.name, "scene": spec.scene, "scene_sha256": scene_digest(scene_file),
         "resolution": list(spec.resolution), "spp": spp, "seed": seed, "bounces": res.bounces,
         "clamp": spec.clamp, "dropped_samples": res.dropped_samples, "gl_backend": p.gl.backend,
+        "sampler": p.features.sampler,
         "gl_renderer": p.gl.renderer, "gl_version": p.gl.version, "mcpt_version": __version__,
         "render_seconds": round(res.render_seconds, 3),
         "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),

@@ -25,17 +25,22 @@ def test_info_json_reports_counts_features_buffers_and_limits():
     assert info["features"]["defines"]["MCPT_BOUNCES"] == 3
     buffers = info["buffers"]
     assert buffers["tris"] == 36 * 3 * 16  # 3 RGBA32UI texels per triangle
-    # Random numbers are sized by the dimensions this bounce count uses.
-    dims = info["features"]["defines"]["MCPT_RAND_DIMS"]
-    assert buffers["random_per_pass"] == 256 * 256 * dims * 4
+    # The default sampler (sobol) computes its numbers in the shader: nothing is uploaded per pass.
+    assert info["features"]["defines"]["MCPT_SAMPLER_SOBOL"] == 1
+    assert buffers["random_per_pass"] == 0
+    indep = json.loads(CliRunner().invoke(
+        main, ["info", str(CORNELL), "--json", "--bounces", "3", "--sampler", "independent"]).output)
+    # Independent numbers are sized by the dimensions this bounce count uses.
+    dims = indep["features"]["defines"]["MCPT_RAND_DIMS"]
+    assert indep["buffers"]["random_per_pass"] == 256 * 256 * dims * 4
     assert info["gl"]["max_texture_buffer_size"] >= 65536
     # A diffuse-only, flat-shaded scene uploads no normals and no UVs.
     assert not {"normals", "uvs", "texels"} & set(buffers)
 
 
 def test_fewer_bounces_need_fewer_random_numbers():
-    a = prepare(CORNELL, bounces=1, resolution=(16, 16))
-    b = prepare(CORNELL, bounces=8, resolution=(16, 16))
+    a = prepare(CORNELL, bounces=1, resolution=(16, 16), sampler="independent")
+    b = prepare(CORNELL, bounces=8, resolution=(16, 16), sampler="independent")
     try:
         assert a.features.random_dims < b.features.random_dims
         assert a.renderer.setup["random_bytes_per_pass"] < b.renderer.setup["random_bytes_per_pass"]
@@ -77,3 +82,17 @@ def test_every_shipped_scene_compiles_only_what_it_uses(scene_file):
             assert (f"{kind}_sample" in text) == (kind in used), kind
     finally:
         p.renderer.release()
+
+
+def test_continuation_is_compiled_only_where_a_path_can_outrun_a_draw():
+    from mcpt.gpu.features import LLVMPIPE_LOOP_LIMIT, derive, needs_continuation
+
+    # The Cornell box (36 triangles, 8 bounces) cannot reach a quarter of llvmpipe's limit.
+    assert not needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 36)
+    assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 1000, 36)
+    assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 100_000)
+    assert not needs_continuation(0, 100_000, 100_000)  # no limit (GPUs): never
+    kw = dict(n_emissive=2, material_types={"diffuse"}, loop_limit=LLVMPIPE_LOOP_LIMIT)
+    assert derive(bounces=1000, n_triangles=36, **kw).defines()["MCPT_CONTINUE"] == 1
+    assert derive(bounces=8, n_triangles=36, **kw).defines()["MCPT_CONTINUE"] == 0
+    assert derive(bounces=1000, n_triangles=36, continuation=False, **kw).defines()["MCPT_CONTINUE"] == 0

@@ -25,12 +25,13 @@ def report_dir(gl) -> str:
     return os.environ.get("MCPT_GOLDEN_REPORT_DIR") or str(ROOT / "out" / "golden" / gl.backend)
 
 
-@pytest.fixture(scope="module")
-def fresh(gl):
-    """One fresh render per golden (the spec's test spp and seed), shared by the tests below."""
+@pytest.fixture(scope="module", params=["sobol", "independent"])
+def fresh(gl, request):
+    """One fresh render per golden (the spec's test spp and seed), shared by the tests below;
+    once with each sampler (both must be unbiased)."""
     out = {}
     for name, spec in golden.GOLDENS.items():
-        mean, _, meta = golden.render_spec(spec, spec.test_spp, spec.test_seed)
+        mean, _, meta = golden.render_spec(spec, spec.test_spp, spec.test_seed, sampler=request.param)
         out[name] = (mean, meta)
     return out
 
@@ -50,7 +51,7 @@ def test_fresh_render_matches_the_golden(name, gl, fresh):
     result = golden.compare(spec, g, mean, spec.test_spp)
     if not result.passed:
         golden.write_report(report_dir(gl), name, mean, g.mean, result)
-    assert result.passed, (f"{name} on {gl.renderer} ({gl.backend}), golden made on "
+    assert result.passed, (f"{name} ({meta['sampler']}) on {gl.renderer} ({gl.backend}), golden made on "
                            f"{g.meta['gl_renderer']} ({g.meta['gl_backend']}): {result.summary()}")
 
 

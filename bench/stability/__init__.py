@@ -21,7 +21,7 @@ Budget: the whole suite runs in well under a minute on a 2-core llvmpipe machine
 8x8 to 32x32 pixels, sample counts 4 to 64.
 """
 
-from . import furnace, geometry, lights, limits, runtime, scale, watertight  # noqa: F401 (register cases)
+from . import deep, furnace, geometry, lights, limits, runtime, scale, watertight  # noqa: F401 (register cases)
 from .core import CASES, Case, Env, Outcome, Row, run_case
 
 __all__ = ["CASES", "Case", "Env", "Outcome", "Row", "run_case"]

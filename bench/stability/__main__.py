@@ -20,7 +20,7 @@ from pathlib import Path
 from mcpt.bench import stability
 
 GROUP_ORDER = ["furnace", "scale", "offset", "watertight", "lights", "geometry", "limits",
-               "non-finite", "determinism", "llvmpipe"]
+               "non-finite", "determinism", "llvmpipe", "deep"]
 
 
 def main(argv=None) -> int:

@@ -135,7 +135,9 @@ def _loop_limit_counted(env: Env) -> Outcome:
     must be dropped and counted (glsl/common.glsl MCPT_LOOP_LIMIT), not come out silently dark.
     Elsewhere (no loop limit) the path completes: L = 20001 (albedo 1, no roulette)."""
     sc = furnace_scene(env, "deep", 1.0, 20000, res=4)
-    res, p = render(env, sc, 2, seed=3, russian_roulette=False)
+    # continuation=False: one draw per pass, as before paths were continued across draws
+    # (the "deep-paths-continue" case checks the default).
+    res, p = render(env, sc, 2, seed=3, russian_roulette=False, continuation=False)
     n = res.image.shape[0] * res.image.shape[1] * res.spp
     if env.llvmpipe:
         ok = res.dropped_samples == n and np.isfinite(res.image).all()

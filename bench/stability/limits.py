@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mcpt.gpu.features import random_dims
+from mcpt.gpu.features import dims_for
 from mcpt.gpu.pack import pack
 from mcpt.scene.shipped import shipped
 
@@ -105,7 +105,7 @@ def _random_row(env: Env) -> Outcome:
     from mcpt.gpu.render import RenderError, plan_tiles
 
     limit = env.gl.limits()["max_texture_buffer_size"]
-    dims = random_dims(1000)
+    dims = dims_for(1000)
     try:
         plan_tiles(16384, 16, dims, limit)
         return Outcome("RenderError", "accepted", False)

@@ -56,7 +56,7 @@ def job_for(p, opts) -> dict:
     return {"scene": str(src.resolve()), "overrides": list(opts.overrides),
             "bounces": p.scene.render.bounces, "seed": p.scene.render.seed,
             "resolution": [cam.width, cam.height], "gl_backend": opts.gl_backend,
-            "features_mode": opts.features_mode, "clamp": opts.clamp,
+            "features_mode": opts.features_mode, "clamp": opts.clamp, "sampler": p.features.sampler,
             "scene_hash": scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles]}
 
 

@@ -32,6 +32,7 @@ class Options:
     resolution: tuple | None = None
     gl_backend: str | None = None
     features_mode: str = "scene"
+    sampler: str | None = None            # None: the default (mcpt/gpu/features.py SAMPLERS[0])
     clamp: float | None = None
     exposure: float = 0.0
     time_budget: float | None = None      # seconds of wall time from ``started``
@@ -100,7 +101,7 @@ def run(scene_file, opts: Options, signals: StopSignals) -> Outcome:
     scene = load_scene(scene_file, overrides=opts.overrides) if opts.overrides else scene_file
     p = prepare(scene, spp=opts.spp, bounces=opts.bounces, seed=opts.seed,
                 resolution=opts.resolution, gl_backend=opts.gl_backend,
-                features_mode=opts.features_mode, clamp=opts.clamp)
+                features_mode=opts.features_mode, clamp=opts.clamp, sampler=opts.sampler)
     if hasattr(opts.progress, "pixels"):
         opts.progress.pixels = p.scene.camera.width * p.scene.camera.height
     try:
@@ -112,7 +113,8 @@ def run(scene_file, opts: Options, signals: StopSignals) -> Outcome:
 def _run(p, opts: Options, signals: StopSignals) -> Outcome:
     r = p.renderer
     spp, seed = p.scene.render.spp, p.scene.render.seed
-    record = st.settings(p.scene, features_mode=opts.features_mode, clamp=opts.clamp)
+    record = st.settings(p.scene, features_mode=opts.features_mode, clamp=opts.clamp,
+                         sampler=p.features.sampler)
     state_file = st.state_path(opts.outputs[0])
     acc = Accumulator.empty(len(r.targets), r.height, r.width)
     if opts.resume:

@@ -60,12 +60,13 @@ def scene_hash(scene) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def settings(scene, *, features_mode: str = "scene", clamp: float | None = None) -> dict:
+def settings(scene, *, features_mode: str = "scene", clamp: float | None = None,
+             sampler: str = "sobol") -> dict:
     """Everything besides the spp that decides a render's numbers, by name."""
     cam, rs = scene.camera, scene.render
     return {"scene_hash": scene_hash(scene), "width": cam.width, "height": cam.height,
             "bounces": rs.bounces, "seed": rs.seed, "features_mode": features_mode,
-            "clamp": None if clamp is None else float(clamp)}
+            "sampler": sampler, "clamp": None if clamp is None else float(clamp)}
 
 
 def mismatch(expected: dict, found: dict, keys=None, here: str = "this render",

@@ -46,8 +46,9 @@ def _prepared(job: dict):
         scene = load_scene(job["scene"], overrides=tuple(job["overrides"]))
         p = prepare(scene, bounces=job["bounces"], seed=job["seed"], resolution=job["resolution"],
                     gl_backend=job["gl_backend"], features_mode=job["features_mode"],
-                    clamp=job["clamp"])
-        found = settings(p.scene, features_mode=job["features_mode"], clamp=job["clamp"])
+                    clamp=job["clamp"], sampler=job["sampler"])
+        found = settings(p.scene, features_mode=job["features_mode"], clamp=job["clamp"],
+                         sampler=p.features.sampler)
         if found["scene_hash"] != job["scene_hash"]:
             raise FarmError(f"{job['scene']} on this worker is not the scene being rendered "
                                f"(hash {found['scene_hash']}, expected {job['scene_hash']}); "

@@ -15,7 +15,7 @@ import numpy as np
 #: Order of the uints in glsl/bvh.glsl's BvhCounters block.
 FIELDS = ("rays", "iterations", "fetches", "node_steps", "triangle_tests", "shadow_rays")
 #: Storage-buffer binding point of the counters (glsl/bvh.glsl `binding = 0`).
-BINDING = 0
+BINDING = 1  # 0 is the path-continuation count (glsl/path_state.glsl)
 
 
 def measure(scene, *, spp: int = 1, seed: int = 0, **prepare_kwargs) -> dict:

@@ -21,22 +21,16 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 
+from ..shading.sampler import DIMS_CAMERA, DIMS_PER_BOUNCE, dims_for, layout_defines  # noqa: F401
+
 # Russian roulette starts after this many scattering events (Mitsuba's rr_depth is 5 path
 # segments = 4 scattering events; we start a little earlier, it is unbiased either way).
 RR_START = 3
 
-# Random numbers each path vertex consumes (mcpt/shading/sampler.py documents the layout):
-# light choice, light point (2), BSDF direction (2), roulette. Materials with two lobes (plastic,
-# dielectric) choose the lobe with the first BSDF number, so no feature adds dimensions.
-DIMS_CAMERA = 2
-DIMS_PER_BOUNCE = 6
-
-
-
-def random_dims(bounces: int) -> int:
-    """Random numbers per pixel per pass of a path with ``bounces`` scattering events."""
-    return DIMS_CAMERA + DIMS_PER_BOUNCE * bounces
-
+# Where the numbers come from (mcpt/shading/sampler.py, which defines the layout once): "sobol"
+# padded Owen-scrambled Sobol' computed in the shader (default: converges faster, no per-pass
+# upload), "independent" PCG64 from the host.
+SAMPLERS = ("sobol", "independent")
 
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
@@ -46,6 +40,29 @@ SAMPLING_MODES = ("mis", "nee", "bsdf")
 # llvmpipe (gallivm's loop limiter) stops the loops of a shader invocation after 65535
 # iterations in total; glsl/common.glsl counts them and drops samples that reach it.
 LLVMPIPE_LOOP_LIMIT = 65535
+
+
+# Samples per pixel one draw takes with the sobol sampler (path regeneration, glsl/pathtrace.frag):
+# lanes whose path ended start the next one instead of idling. 4 measured 1.3x the paths/s of 1 on
+# the Cornell box (bench/samplers.py); 8 was no faster. A draw never takes more than the maximum,
+# which the continuation decision below assumes.
+SAMPLES_PER_DRAW = 4
+MAX_SAMPLES_PER_DRAW = 8
+
+
+def max_loop_iterations(bounces: int, n_triangles: int) -> int:
+    """An upper bound on the loop iterations of one path: per ray at most every node and every
+    triangle once (a binary tree has < 2 nodes per triangle), a closest-hit and a shadow ray per
+    vertex, plus the bounce loop itself."""
+    return (bounces + 1) * (2 * 3 * max(n_triangles, 1) + 1)
+
+
+def needs_continuation(loop_limit: int, bounces: int, n_triangles: int) -> bool:
+    """Whether a path may outrun one draw's share of the loop limit (glsl/path_state.glsl). When
+    it cannot (the Cornell box: 36 triangles, 8 bounces, < 2 000 iterations a path), the continuation
+    code and its per-draw read-back are left out."""
+    worst = MAX_SAMPLES_PER_DRAW * max_loop_iterations(bounces, n_triangles)  # one draw's paths
+    return loop_limit > 0 and worst > loop_limit // 4
 
 
 def loop_limit_for(renderer: str) -> int:
@@ -77,10 +94,15 @@ class Features:
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
     counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
+    sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
+    continuation: bool = True       # with a loop limit: continue long paths in further draws
+                                    # (derive() leaves it off where no path can need it)
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
             raise ValueError(f"sampling must be one of {SAMPLING_MODES}, got {self.sampling!r}")
+        if self.sampler not in SAMPLERS:
+            raise ValueError(f"sampler must be one of {SAMPLERS}, got {self.sampler!r}")
 
     @property
     def nee(self) -> bool:
@@ -112,7 +134,17 @@ class Features:
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return random_dims(self.bounces)
+        return dims_for(self.bounces)
+
+    @property
+    def continues(self) -> bool:
+        """Paths are split across draws (glsl/path_state.glsl): only where loops are capped."""
+        return self.continuation and self.loop_limit > 0
+
+    @property
+    def uploads_random(self) -> bool:
+        """The independent sampler uploads its numbers every pass; sobol computes them."""
+        return self.sampler == "independent"
 
     @property
     def key(self) -> tuple:
@@ -123,6 +155,8 @@ class Features:
         return {
             "MCPT_BOUNCES": self.bounces,
             "MCPT_RAND_DIMS": self.random_dims,
+            "MCPT_SAMPLER_SOBOL": b(self.sampler == "sobol"),
+            **layout_defines(),
             "MCPT_NEE": b(self.nee),
             "MCPT_MIS": b(self.mis),
             "MCPT_LIGHTS": b(self.lights),
@@ -147,6 +181,7 @@ class Features:
             "MCPT_VARIANCE": b(self.variance),
             "MCPT_LOOP_LIMIT": self.loop_limit,
             "MCPT_COUNTERS": b(self.counters),
+            "MCPT_CONTINUE": b(self.continues),
         }
 
     def preamble(self) -> str:
@@ -165,7 +200,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
            sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False,
-           loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False) -> Features:
+           loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
+           sampler: str = "sobol", continuation: bool = True) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
@@ -195,6 +231,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         loop_limit=loop_limit,
         counters=counters,
         bvh_dense=bvh_dense,
+        sampler=sampler,
+        continuation=continuation and needs_continuation(loop_limit, bounces, n_triangles),
     )
 
 

@@ -2,13 +2,22 @@
 
 Each pass renders one sample per pixel into an RGBA32F target with additive blending; every
 ``chunk`` passes the float32 target is read back, added into a float64 sum and cleared, so the
-average never loses precision, however many passes (the thesis averaged 8-bit images). Each pass
-gets fresh random numbers (mcpt/shading/sampler.py) in one of two buffer textures used in turn, so
-writing the next pass's numbers never waits for the draw that reads the previous ones.
+average never loses precision, however many passes (the thesis averaged 8-bit images).
 
-Large images are split into tiles (scissored draws): this bounds the random-number buffer by
-GL_MAX_TEXTURE_BUFFER_SIZE and keeps each draw short on a real GPU, whose driver watchdog
-would kill a draw that runs for seconds.
+Random numbers (mcpt/shading/sampler.py): with ``sobol`` (default) the shader computes them from
+the seed, the pixel and the pass (sample) index, set as one uniform: no host work and no upload
+per pass, and a draw takes several samples per pixel (path regeneration, glsl/pathtrace.frag).
+With ``independent`` each pass gets fresh numbers in one of two buffer textures used in turn;
+large images are then split into tiles (scissored draws), which bounds that buffer by
+GL_MAX_TEXTURE_BUFFER_SIZE.
+
+Where the driver caps loop iterations (llvmpipe), paths still running when a draw has spent its
+share are stored and continued by further draws of the same pass (mcpt/gpu/path_state.py).
+
+Draws, read-backs and stops fall on one global grid of passes counted from pass 0, whatever
+pass a run starts at: a draw never spans a multiple of ``samples_per_draw`` or of ``chunk``.
+So one render, a resumed one and the tasks of a farm group samples the same way and add the
+same float32 and float64 numbers in the same order (bit-identical images, issue #11).
 """
 
 from __future__ import annotations
@@ -22,10 +31,12 @@ import numpy as np
 
 from ..errors import McptError
 from ..shading.sampler import RandomNumbers
+from ..shading.sobol import seed32
 from . import shader
 from .context import GLContext
-from .features import Features
+from .features import SAMPLES_PER_DRAW, Features
 from .pack import Packed
+from .path_state import PathState
 from .tbo import GL_R32F, create_tbo
 
 # Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
@@ -125,16 +136,24 @@ class Renderer:
         for name, arr in packed.buffers.items():
             per, item = packed.per_item.get(name, (1, "texels"))
             self.tbos[name] = create_tbo(gl, name, arr, per_item=per, item=item)
-        self.tiles = plan_tiles(self.width, self.height, features.random_dims,
-                                limits["max_texture_buffer_size"], max_random_per_tile)
-        tile_pixels = max(w * h for _, _, w, h in self.tiles)
-        # Host staging array filled in place each pass, and two buffer textures used in turn.
-        self._numbers = np.zeros(tile_pixels * features.random_dims, np.float32)
-        self.random = [create_tbo(gl, "random", self._numbers, internal_format=GL_R32F)
-                       for _ in range(2)]
+        if features.uploads_random:
+            self.tiles = plan_tiles(self.width, self.height, features.random_dims,
+                                    limits["max_texture_buffer_size"], max_random_per_tile)
+            tile_pixels = max(w * h for _, _, w, h in self.tiles)
+            # Host staging array filled in place each pass, and two buffer textures used in turn.
+            self._numbers = np.zeros(tile_pixels * features.random_dims, np.float32)
+            self.random = [create_tbo(gl, "random", self._numbers, internal_format=GL_R32F)
+                           for _ in range(2)]
+        else:  # sobol: numbers computed in the shader, nothing to upload or bound
+            self.tiles = [(0, 0, self.width, self.height)]
+            self._numbers = None
+            self.random = []
+        # Samples per pixel per draw (path regeneration); 1 where numbers are uploaded per pass.
+        self.samples_per_draw = 1 if features.uploads_random else SAMPLES_PER_DRAW
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
                         for _ in range(2 if features.variance else 1)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
+        self.paths = PathState(ctx, self.width, self.height) if features.continues else None
         self.vao = ctx.vertex_array(self.program, [])
         for name, value in packed.uniforms.items():
             self._uniform(name, value)
@@ -145,7 +164,9 @@ class Renderer:
             "compile_seconds": t1 - t0,
             "upload_seconds": t2 - t1,
             "upload_bytes": {k: v.nbytes for k, v in self.tbos.items()},
-            "random_bytes_per_pass": int(self.width * self.height * features.random_dims * 4),
+            "random_bytes_per_pass": (int(self.width * self.height * features.random_dims * 4)
+                                      if features.uploads_random else 0),
+            "sampler": features.sampler,
             "tiles": len(self.tiles),
         }
 
@@ -153,10 +174,18 @@ class Renderer:
         if name in self.program:  # the specialised program may have compiled a uniform away
             self.program[name].value = value
 
-    def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64) -> RenderResult:
-        """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``."""
+    def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64,
+               samples_per_draw: int | None = None) -> RenderResult:
+        """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``.
+        ``samples_per_draw`` overrides the path-regeneration width for this render (sobol)."""
         if spp < 1:
             raise RenderError(f"spp must be >= 1, got {spp}")
+        if samples_per_draw is not None and not self.features.uploads_random:
+            keep, self.samples_per_draw = self.samples_per_draw, max(1, int(samples_per_draw))
+            try:
+                return self.render(spp, seed, progress=progress, chunk=chunk)
+            finally:
+                self.samples_per_draw = keep
         total = np.zeros((len(self.targets), self.height, self.width, 4), np.float64)
         t0 = time.perf_counter()
         for done, sums in self.passes(seed, 0, spp, chunk=chunk):
@@ -178,9 +207,12 @@ class Renderer:
         ``tiles``: indices into ``self.tiles`` to draw (default all; other pixels stay 0).
         """
         ctx = self.gl.ctx
+        upload = self.features.uploads_random
         dims = self.features.random_dims
-        streams = [RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
+        streams = ([RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
+                   if upload else [])
         todo = [(i, self.tiles[i]) for i in (range(len(self.tiles)) if tiles is None else tiles)]
+        self._uniform("u_sobol_seed", seed32(seed))
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
         if carry is not None:
@@ -190,28 +222,47 @@ class Renderer:
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         for t in self.tbos.values():
             t.bind()
+        if self.paths is not None:
+            self.paths.bind()
+            self._uniform("u_continue", 0)
         self.random_seconds = 0.0
+        spd = self.samples_per_draw
         draws = 0
+        # Passes in the target at the next read-back: a carried target holds its chunk's passes.
+        last = (start // chunk) * chunk if carry is not None else start
+        p = start
         try:
-            for p in range(start, stop):
+            while p < stop:
+                n = min(spd - p % spd, chunk - p % chunk, stop - p)  # on the global grid
+                self._uniform("u_samples", n)
                 for ti, (x0, y0, w, h) in todo:
-                    tr = time.perf_counter()
-                    streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
-                    self.random_seconds += time.perf_counter() - tr
-                    buf = self.random[draws % 2]
-                    buf.write(self._numbers)
-                    buf.bind()
+                    if upload:
+                        tr = time.perf_counter()
+                        streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
+                        self.random_seconds += time.perf_counter() - tr
+                        buf = self.random[draws % 2]
+                        buf.write(self._numbers)
+                        buf.bind()
+                    else:
+                        self._uniform("u_sample_index", p)  # sobol: the draw's first sample index
                     self._uniform("u_tile", (x0, y0, w, h))
                     self._uniform("u_rand_stride", w * h)
                     # GL rows count from the bottom; tiles are given from the top.
                     ctx.scissor = (x0, self.height - y0 - h, w, h)
+                    if self.paths is not None:
+                        self.paths.reset_count()
                     self.vao.render(moderngl.TRIANGLES, vertices=3)
                     draws += 1
+                    if self.paths is not None:  # long paths: further draws until all have ended
+                        self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
+                                          lambda v: self._uniform("u_continue", v),
+                                          limit=n * (self.features.bounces + 2))
+                p += n
                 stopping = interrupt is not None and interrupt()
-                if (p + 1) % chunk == 0 or p + 1 == stop or stopping:
+                if p % chunk == 0 or p == stop or stopping:
                     ctx.scissor = None
-                    first = max(start, (p // chunk) * chunk) if carry is None else (p // chunk) * chunk
-                    yield p + 1, drop_nonfinite(self._read_and_clear(np.float32), p + 1 - first)
+                    yield p, drop_nonfinite(self._read_and_clear(np.float32), p - last)
+                    last = p
                 if stopping:
                     return
         finally:
@@ -229,8 +280,11 @@ class Renderer:
         if self.features.variance:
             var = np.maximum(total[1, ..., :3] / n - image**2, 0.0) * n / np.maximum(n - 1.0, 1.0)
             variance = (var / n).astype(np.float32)
+        setup = dict(self.setup)
+        if self.paths is not None:
+            setup["continuation_draws"] = self.paths.draws
         return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
-                            dropped, seconds, random_seconds, dict(self.setup))
+                            dropped, seconds, random_seconds, setup)
 
     def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
         """The accumulation targets as (targets, H, W, 4), row 0 at the top; then cleared."""
@@ -246,5 +300,7 @@ class Renderer:
             t.release()
         self.vao.release()
         self.fbo.release()
+        if self.paths is not None:
+            self.paths.release()
         for t in self.targets:
             t.release()

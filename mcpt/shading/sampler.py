@@ -1,21 +1,32 @@
-"""Pre-generated random numbers, fresh for every pass (GLSL side: glsl/sampler.glsl).
+"""Random numbers of a path: their layout (the one definition) and both samplers.
 
-Layout of one pass's numbers (float32 in [0, 1), 24 random bits each, one ``R32F`` buffer
-texture, ``D = features.random_dims``)::
+Layout (the shader reads it from the MCPT_DIM* defines, see :func:`layout_defines`)::
 
-    index = dim * P + pixel,   P = pixels in the tile,
-                               pixel = row_in_tile * tile_width + column_in_tile (rows from the top)
     dim 0, 1                 camera jitter inside the pixel (box filter)
     dim 2 + 6 (k - 1) + ...  bounce k = 1..bounces:
         + 0 light choice,  + 1, + 2 point on the light,  + 3, + 4 BSDF direction,  + 5 roulette
 
-The same six numbers serve every material (glsl/materials.glsl), so no material feature adds
-dimensions: a vertex without a light sample (mirror, glass) leaves + 0..2 unread; glass picks
-reflection or refraction with + 3 (its directions are fixed); plastic picks its lobe with + 3 and
-rescales it to [0, 1) for the diffuse direction ((u - p) / (1 - p) is uniform given u >= p: the
-"sample reuse" of pbrt-v4), which costs a few of the 24 bits, far below what a direction needs.
-Because the layout does not depend on the sampling mode either, NEE-only, BSDF-only and MIS
-renders with one seed draw the same BSDF directions (the tests compare their variances that way).
+i.e. ``DIMS_CAMERA + DIMS_PER_BOUNCE * (k - 1) + DIM_*``. The same six numbers serve every
+material (glsl/materials.glsl), so no material feature adds dimensions: a vertex without a light
+sample (mirror, glass) leaves + 0..2 unread; glass picks reflection or refraction with + 3 (its
+directions are fixed); plastic picks its lobe with + 3 and rescales it to [0, 1) for the diffuse
+direction ((u - p) / (1 - p) is uniform given u >= p: the "sample reuse" of pbrt-v4), which costs
+a few of the 24 bits, far below what a direction needs. Because the layout does not depend on the
+sampling mode either, NEE-only, BSDF-only and MIS renders with one seed draw the same BSDF
+directions (the tests compare their variances that way).
+
+Samplers (``--sampler``, features.SAMPLERS):
+
+``sobol`` (default) padded, Owen-scrambled Sobol' computed in the shader from hashes of (seed,
+pixel, dim) and the sample index (mcpt/shading/sobol.py, glsl/sobol.glsl): no upload, no host work per
+pass, and 2D pairs stratified across samples (faster convergence: relMSE x0.59 at equal spp on
+the Cornell box, bench/samplers.py). A draw may take several samples (path regeneration).
+
+``independent``: the numbers below, generated on the host for every pass and uploaded (one
+``R32F`` buffer texture, float32 in [0, 1), 24 random bits each, ``D = features.random_dims``)::
+
+    index = dim * P + pixel,   P = pixels in the tile,
+                               pixel = row_in_tile * tile_width + column_in_tile (rows from the top)
 
 so a pixel reads only its own ``D`` numbers, each dimension of its path gets its own number, and
 no two pixels or bounces share one. Dimension-major order makes neighbouring pixels, shaded side by
@@ -31,6 +42,25 @@ result reports generation seconds beside render seconds (bench/run.py prints the
 from __future__ import annotations
 
 import numpy as np
+
+# The layout above, defined once (features.py emits it as defines, glsl/sampler.glsl reads them).
+DIMS_CAMERA = 2        # camera jitter
+DIMS_PER_BOUNCE = 6    # light choice, light point (2), BSDF direction (2), roulette
+DIM_LIGHT_PICK = 0     # offsets inside one bounce's share
+DIM_LIGHT_UV = 1
+DIM_BSDF_UV = 3
+DIM_RR = 5
+
+
+def dims_for(bounces: int) -> int:
+    """Random numbers one path of ``bounces`` scattering events may read."""
+    return DIMS_CAMERA + DIMS_PER_BOUNCE * int(bounces)
+
+
+def layout_defines() -> dict[str, int]:
+    return {"MCPT_DIMS_CAMERA": DIMS_CAMERA, "MCPT_DIMS_PER_BOUNCE": DIMS_PER_BOUNCE,
+            "MCPT_DIM_LIGHT_PICK": DIM_LIGHT_PICK, "MCPT_DIM_LIGHT_UV": DIM_LIGHT_UV,
+            "MCPT_DIM_BSDF_UV": DIM_BSDF_UV, "MCPT_DIM_RR": DIM_RR}
 
 
 class RandomNumbers:

@@ -1,0 +1,56 @@
+// The state of a path between bounces, and (MCPT_CONTINUE) its trip through images from one draw
+// to the next (host side: mcpt/gpu/path_state.py).
+//
+// llvmpipe stops a shader invocation's loops after 65535 iterations in total (glsl/common.glsl),
+// which used to cap path length: a 1000-bounce path in the albedo-0.999 furnace was cut (and its
+// sample dropped) about half the time. With MCPT_CONTINUE a draw follows each path only until its
+// loop counter reaches SEGMENT_TICKS (a quarter of the limit, so a SIMD batch, which counts
+// up to ~1.25x its busiest lane, stays far below it), stores the path here and counts it; the
+// host then draws again over the image, and each draw continues the stored paths until none is
+// left. A path needs one draw per ~SEGMENT_TICKS iterations: 8-bounce scenes never need a
+// second one. Radiance is added to the accumulation target as it is gathered, so a sample's
+// draws add up to its value (main() in glsl/pathtrace.frag).
+struct Path {
+    Ray ray;              // the next ray to trace; the hit it finds is hit k
+    vec3 beta;            // throughput
+    vec3 L;               // radiance gathered so far (by all draws)
+    int k;                // bounce convention: glsl/pathtrace.frag
+    float pdf_bsdf_prev;  // solid-angle pdf of the BSDF sample that made ray (MIS)
+    bool delta_prev;      // ray came from a specular lobe (or the camera)
+    float eta_scale;      // product of eta^2 crossed (roulette, pbrt-v4)
+};
+
+Path camera_path(Ray r) { return Path(r, vec3(1.0), vec3(0.0), 1, 0.0, true, 1.0); }
+
+#if MCPT_CONTINUE
+#define SEGMENT_TICKS (MCPT_LOOP_LIMIT / 4)
+bool segment_spent() { return g_loop_iterations >= SEGMENT_TICKS; }
+
+// One texel per pixel each (RGBA32F, bound as images 0-3; w of state 0 is k, 0 = no path).
+layout(binding = 0, rgba32f) uniform image2D u_state0;  // ray.o, k
+layout(binding = 1, rgba32f) uniform image2D u_state1;  // ray.d, pdf_bsdf_prev
+layout(binding = 2, rgba32f) uniform image2D u_state2;  // beta, eta_scale
+layout(binding = 3, rgba32f) uniform image2D u_state3;  // L, 2 * sample j of the draw + delta_prev
+layout(std430, binding = 0) buffer PathCount { uint n_unfinished; };  // reset by the host
+uniform int u_continue;  // 0: start camera paths; 1: continue the stored ones
+
+bool path_stored(ivec2 px) { return imageLoad(u_state0, px).w != 0.0; }
+
+Path path_load(ivec2 px, out int j) {
+    vec4 s0 = imageLoad(u_state0, px), s1 = imageLoad(u_state1, px);
+    vec4 s2 = imageLoad(u_state2, px), s3 = imageLoad(u_state3, px);
+    int w = int(s3.w);
+    j = w >> 1;
+    return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, (w & 1) != 0, s2.w);
+}
+
+void path_store(ivec2 px, Path P, int j) {
+    imageStore(u_state0, px, vec4(P.ray.o, float(P.k)));
+    imageStore(u_state1, px, vec4(P.ray.d, P.pdf_bsdf_prev));
+    imageStore(u_state2, px, vec4(P.beta, P.eta_scale));
+    imageStore(u_state3, px, vec4(P.L, float(2 * j + (P.delta_prev ? 1 : 0))));
+    atomicAdd(n_unfinished, 1u);
+}
+
+void path_clear(ivec2 px) { imageStore(u_state0, px, vec4(0.0)); }
+#endif
