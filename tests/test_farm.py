@@ -316,7 +316,8 @@ def test_bad_define_names_the_override(folder, define, needles):
 
 def test_plain_progress_lines_match_the_documented_format(folder, monkeypatch):
     monkeypatch.setenv("MCPT_PROGRESS_INTERVAL", "0")
-    r = CliRunner().invoke(main, ["render", "scene.yaml", "--spp", "5", "-o", "p.exr", "--progress", "plain"])
+    r = CliRunner().invoke(main, ["render", "scene.yaml", "--spp", "5", "-o", "p.exr", "--progress", "plain",
+                                  "--sampler", "independent"])
     assert r.exit_code == 0, r.output
     lines = [ln for ln in r.stderr.splitlines() if ln.startswith("mcpt: progress")]
     assert len(lines) >= 4
@@ -355,7 +356,7 @@ def test_tiles_drawn_one_by_one_give_the_whole_image(folder, gl):
     from mcpt.shapes.world import load_world
 
     world = load_world(load_scene(folder / "scene.yaml"))
-    feats = for_world(world)
+    feats = for_world(world, sampler="independent")  # tiles exist for uploaded numbers only
     # 12x10 pixels, 11 random numbers per pixel: at most 3 rows per tile -> 4 tiles.
     r = Renderer(gl, feats, pack(world, feats), max_random_per_tile=12 * feats.random_dims * 3)
     try:

@@ -147,12 +147,11 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
                           client=opts.client)
     else:
         while acc.done < spp and control.stop is None:
-            base, count, action = acc.done, 0, [None]
+            action, last = [None], [acc.done]
 
-            def after_pass():
-                nonlocal count
-                count += 1
-                action[0] = control.tick(base + count)
+            def after_pass(done: int) -> bool:  # after each draw: it may hold several passes
+                action[0] = control.tick(done, done - last[0])
+                last[0] = done
                 return action[0] is not None
 
             for done, sums in r.passes(seed, acc.done, spp, carry=acc.partial, interrupt=after_pass):

@@ -200,7 +200,8 @@ class Renderer:
 
         ``sums`` is the float32 target read back (and cleared), shape (targets, H, W, 4), yielded at
         every multiple of ``chunk`` (counted from pass 0, not from ``start``), at ``stop``, and
-        after a pass where ``interrupt()`` is true (then the generator ends). Because read-backs
+        after a draw where ``interrupt(passes_done)`` is true (then the generator ends; a draw
+        holds up to ``samples_per_draw`` passes). Because read-backs
         fall on the same passes wherever a render starts, stops or resumes, every way of adding
         them up in pass order (one render, a resumed one, tasks of a farm) adds the same numbers
         (mcpt/farm/accumulate.py). ``carry``: the target of an unfinished chunk to continue from;
@@ -258,7 +259,7 @@ class Renderer:
                                           lambda v: self._uniform("u_continue", v),
                                           limit=n * (self.features.bounces + 2))
                 p += n
-                stopping = interrupt is not None and interrupt()
+                stopping = interrupt is not None and interrupt(p)
                 if p % chunk == 0 or p == stop or stopping:
                     ctx.scissor = None
                     yield p, drop_nonfinite(self._read_and_clear(np.float32), p - last)
