@@ -434,3 +434,20 @@ def test_script_renders_and_reports_dropped_samples(folder):
     assert "16 non-finite samples dropped" in p.stderr
     img, _ = read_exr(folder / "hot.exr")
     assert np.isfinite(img).all()
+
+
+def test_absurd_spp_is_refused_in_one_line(folder):
+    """Issue #10: 2^40 spp was accepted and ran until killed; the sample index is 32-bit."""
+    assert_fails_cleanly(invoke("scene.yaml", "--spp", str(2**40), "-o", "out.exr"), folder,
+                         "render.spp", "4294967295")
+
+
+def test_a_render_projected_past_an_hour_says_so_first(folder, monkeypatch):
+    """Issue #10: the estimate comes after the first draw, before the bulk of the work."""
+    from mcpt.farm import session
+
+    monkeypatch.setattr(session, "LONG_RENDER_SECONDS", 0.0)
+    r = invoke("scene.yaml", "--spp", "3", "-o", "out.exr")
+    assert r.exit_code == 0
+    warn = [ln for ln in r.stderr.splitlines() if "will take about" in ln]
+    assert len(warn) == 1 and "--time SECONDS" in warn[0]

@@ -7,6 +7,7 @@ feed an :class:`Accumulator`, so where the render stops, resumes or runs changes
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +18,8 @@ from ..output.image import write_image
 from . import state as st
 from .accumulate import Accumulator
 from .signals import StopSignals
+
+log = logging.getLogger("mcpt")
 
 
 class ResumeError(McptError, ValueError):
@@ -71,8 +74,11 @@ class Control:
 
     def tick(self, done: int, new_passes: int = 1) -> str | None:
         """``done`` passes of the render exist; returns 'stop', 'checkpoint' or None."""
+        first = self.passes_run == 0
         self.passes_run += new_passes
         now = time.perf_counter()
+        if first:
+            self._warn_if_long(done, now)
         if self.opts.progress is not None:
             self.opts.progress(done, self.spp, self.passes_run, now - self.t_run)
         per_pass = (now - self.t_run) / max(self.passes_run, 1)
@@ -87,6 +93,28 @@ class Control:
         if self.opts.checkpoint is not None and now - self.last_checkpoint >= self.opts.checkpoint:
             return "checkpoint"
         return None
+
+
+    def _warn_if_long(self, done: int, now: float) -> None:
+        """After the first draw: say so when the whole render would take longer than an hour at
+        the speed measured here (issue #10: 2^40 spp used to run until killed, silently)."""
+        per_pass = (now - self.t_run) / max(self.passes_run, 1)
+        left = per_pass * (self.spp - done)
+        if left > LONG_RENDER_SECONDS and self.opts.time_budget is None:
+            log.warning("%d spp will take about %s at %.3g s a pass measured here; --time SECONDS "
+                        "bounds it, --checkpoint SECONDS keeps what is done", self.spp,
+                        _duration(left), per_pass)
+
+
+#: A render projected to take longer than this (seconds) is announced with a warning.
+LONG_RENDER_SECONDS = 3600.0
+
+
+def _duration(seconds: float) -> str:
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("hours", 3600)):
+        if seconds >= size:
+            return f"{seconds / size:.3g} {unit}"
+    return f"{seconds / 60:.3g} minutes"
 
 
 def header(meta: dict, record: dict, spp_requested: int) -> dict:

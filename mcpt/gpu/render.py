@@ -22,6 +22,7 @@ same float32 and float64 numbers in the same order (bit-identical images, issue 
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 from dataclasses import dataclass, field
@@ -38,6 +39,11 @@ from .features import SAMPLES_PER_DRAW, Features
 from .pack import Packed
 from .path_state import PathState
 from .tbo import GL_R32F, create_tbo
+
+log = logging.getLogger("mcpt")
+
+#: Random numbers uploaded per pass (MiB) above which the independent sampler is worth a warning.
+RANDOM_WARN_MIB = 64
 
 # Random numbers per tile at most (uint32): 256 MiB, and far below llvmpipe's 2^27-texel limit.
 MAX_RANDOM_PER_TILE = 1 << 26
@@ -144,6 +150,11 @@ class Renderer:
             self._numbers = np.zeros(tile_pixels * features.random_dims, np.float32)
             self.random = [create_tbo(gl, "random", self._numbers, internal_format=GL_R32F)
                            for _ in range(2)]
+            mib = self.width * self.height * features.random_dims * 4 / 2**20
+            if mib > RANDOM_WARN_MIB:
+                log.warning("the independent sampler uploads %.0f MiB of random numbers a pass at "
+                            "%d bounces; --sampler sobol computes them in the shader instead",
+                            mib, features.bounces)
         else:  # sobol: numbers computed in the shader, nothing to upload or bound
             self.tiles = [(0, 0, self.width, self.height)]
             self._numbers = None

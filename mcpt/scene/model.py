@@ -99,8 +99,8 @@ class Camera(_Model):
 class RenderSettings(_Model):
     """Render defaults; each can be overridden from the command line (:meth:`Scene.with_overrides`)."""
 
-    spp: Annotated[int, Field(ge=1)] = 64
-    """Samples per pixel, >= 1."""
+    spp: Annotated[int, Field(ge=1, le=2**32 - 1)] = 64
+    """Samples per pixel, 1 .. 2^32 - 1 (the sample index is 32-bit: mcpt/shading/sobol.py)."""
     bounces: Annotated[int, Field(ge=0)] = 8
     """Maximum scattering events per path: 0 = emitters only, 1 = direct light only."""
     seed: Annotated[int, Field(ge=0, lt=2**63)] = 0
