@@ -39,9 +39,13 @@ test: setup
 test-osmesa: setup
 	MCPT_GL_BACKEND=osmesa $(PY) -m pytest -q
 
+# The quick sweeps, then mcpt beside Mitsuba 3 (make peer; its side is skipped with one line if
+# Mitsuba cannot be installed), then the README's pictures in bench/figures/ from both runs.
 bench: setup
 	$(PY) -m mcpt.bench.run --quick
-	$(PY) -m mcpt.bench.figures --bench out/bench --out bench/figures
+	$(MAKE) --no-print-directory peer
+	$(PY) -m mcpt.bench.figures --bench out/bench --out bench/figures --no-gallery
+	$(PY) -m mcpt.bench.figures --bench $(PEER_OUT) --out bench/figures
 
 # Issue #14: mcpt and Mitsuba 3 side by side (bench/peer.py). Mitsuba lives in its own venv,
 # OUTSIDE the package (.venv-peer, ignored by git), and runs as a subprocess with that venv's python

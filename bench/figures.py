@@ -19,7 +19,7 @@ from mcpt.api import render_scene
 from mcpt.output.image import to_srgb8
 from mcpt.scene.shipped import shipped_dir
 
-GALLERY = ("cornell-box", "cornell-spheres", "bunny-metal", "spot", "mis-glossy")
+GALLERY = ("cornell-box", "cornell-spheres", "metals", "bunny-metal", "spot", "mis-glossy")
 MAX_WIDTH = 720  # pixels: plots wider than this are shrunk (area interpolation)
 
 

@@ -82,7 +82,7 @@ def section_error(d: dict) -> list[str]:
     if fit:
         L += ["", f"- log-log fit relMSE ∝ seconds^k: **k = {fit['slope']:.3f}** (R² {fit['r2']:.4f}); "
                   f"against spp: k = {sm['fit_relmse_vs_spp']['slope']:.3f}. "
-                  f"Within −1 ± 0.15: {'yes' if sm.get('slope_within_0.15_of_minus_1') else 'NO'}."]
+                  f"At least as fast as 1/spp (k ≤ −0.85): {'yes' if sm.get('slope_at_least_minus_1') else 'NO'}."]
     for tt, ts in zip(sm.get("time_to_relmse", []), sm.get("spp_to_relmse", [])):
         L.append(f"- time to relMSE {tt['threshold']:g}: **{_f(tt['seconds'], '.3g')} s** "
                  f"({tt['method']}; ≈ {_f(ts['seconds'], '.3g')} spp)")

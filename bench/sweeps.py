@@ -378,7 +378,9 @@ def error_summary(records: list[dict]) -> dict:
         out["fit_mae_vs_seconds"] = common.fit_power(t, [r["mae"] for r in records]).as_dict()
         out["time_to_relmse"] = [common.time_to_threshold(t, rel, thr, fit_t) for thr in THRESHOLDS]
         out["spp_to_relmse"] = [common.time_to_threshold(spp, rel, thr) for thr in THRESHOLDS]
-        out["slope_within_0.15_of_minus_1"] = abs(fit_t.slope + 1.0) <= 0.15
+        # Unbiased Monte Carlo converges as 1/spp; a stratified sampler (sobol) may converge faster
+        # at these spp, never slower: the check is "at least as fast as 1/spp, within 0.15".
+        out["slope_at_least_minus_1"] = fit_t.slope <= -1.0 + 0.15
         # CPU seconds (both llvmpipe threads): steadier than wall time on a shared machine, and
         # comparable with the peer study's CPU seconds
         cpu = [r["cpu_seconds"] for r in records]
