@@ -11,7 +11,7 @@ import time
 import traceback
 from pathlib import Path
 
-from . import common, peer_run, plots, report, sweeps
+from . import common, peer_run, report, sweeps
 
 # "all" is the default set; "peer" (mcpt and Mitsuba 3 side by side, issue #14) runs when named.
 SWEEPS = {**sweeps.SWEEPS, "peer": peer_run.peer_sweep}
@@ -39,6 +39,23 @@ def resolve(names) -> list[str]:
     return out
 
 
+def _plots(log):
+    """The plotting module, or None (said once) where matplotlib is not installed: an installed
+    wheel's `mcpt bench` still measures and reports (pip install matplotlib for the PNGs)."""
+    global _PLOTS_WARNED
+    try:
+        from . import plots
+    except ImportError as exc:
+        if not _PLOTS_WARNED:
+            log(f"plots skipped: {exc.name or 'matplotlib'} is not installed (pip install matplotlib)")
+            _PLOTS_WARNED = True
+        return None
+    return plots
+
+
+_PLOTS_WARNED = False
+
+
 def run(names, cfg: sweeps.Config, log=print, argv=None) -> dict:
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -62,7 +79,9 @@ def run(names, cfg: sweeps.Config, log=print, argv=None) -> dict:
         m = {**meta, "time_utc": common.run_meta(meta["gl"], argv)["time_utc"],
              "loadavg_1min": common.loadavg(), "sweep_seconds": time.perf_counter() - t0}
         files.append(common.write_records(out, name, m, res["settings"], res["records"], res["summary"]))
-        files += plots.PLOTS[name](res, out, m)
+        plots = _plots(log)
+        if plots is not None:
+            files += plots.PLOTS[name](res, out, m)
         done.append(name)
         log(f"== {name} done in {m['sweep_seconds']:.1f} s")
     files.append(report.write_report(out))
