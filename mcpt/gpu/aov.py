@@ -64,7 +64,7 @@ def means(a: np.ndarray, b: np.ndarray) -> dict[str, np.ndarray]:
     depth = a[..., 3:4] / events
     normal = b[..., :3] / events
     length = np.linalg.norm(normal, axis=-1, keepdims=True)
-    normal = np.where(length > 1e-12, normal / np.maximum(length, 1e-300), 0.0)
+    normal = normal * np.divide(1.0, length, out=np.zeros_like(length), where=length > 1e-12)
     return {"albedo": albedo.astype(np.float32), "normal": normal.astype(np.float32),
             "depth": depth.astype(np.float32)}
 
