@@ -101,6 +101,7 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
                "resumed_from": out.resumed_from, "stopped_by": out.stopped_by,
                "checkpoint": str(out.checkpoint) if out.checkpoint else None,
                **({"farm": out.farm} if out.farm else {}),
+               "aovs": list(aovs), "denoised": denoise,
                "mcpt_version": __version__}
     if as_json:
         click.echo(json.dumps(summary, indent=2))

@@ -258,3 +258,21 @@ def test_info_lists_the_aovs(folder):
     for name in AOVS:
         assert f"  {name}: " in r.output
     assert "depth.Z" in r.output
+
+
+def test_aovs_resume_bit_identically_and_refuse_another_set(folder):
+    """A render stopped inside a chunk (here: 68 spp, on the draw grid, then --resume to 100)
+    with AOVs resumes to the very layers of an uninterrupted render; a resume asking for other
+    AOV targets is refused with one line."""
+    run = lambda *a: CliRunner().invoke(main, ["render", "wall.yaml", "--aov", "albedo,depth,variance",  # noqa: E731
+                                               "--quiet", *a])
+    assert run("--spp", "68", "--checkpoint", "1000", "-o", "c.exr").exit_code == 0
+    r = run("--spp", "100", "--resume", "-o", "c.exr")
+    assert r.exit_code == 0, r.output
+    assert run("--spp", "100", "-o", "u.exr").exit_code == 0
+    a, b = read_exr_channels("c.exr"), read_exr_channels("u.exr")
+    assert set(a) == set(b) and all(np.array_equal(a[k], b[k]) for k in a)
+    r = CliRunner().invoke(main, ["render", "wall.yaml", "--spp", "120", "--resume", "-o", "c.exr",
+                                  "--quiet"])
+    assert r.exit_code == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and "aov_targets" in r.stderr, r.stderr

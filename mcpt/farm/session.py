@@ -128,7 +128,9 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
     acc = Accumulator.empty(len(r.targets), r.height, r.width)
     if opts.resume:
         acc, found = st.load(state_file)
-        why = st.mismatch(record, found)
+        # aov_targets is recorded only when there are some: compare it both ways.
+        why = st.mismatch(record, found) or st.mismatch(
+            {"aov_targets": record.get("aov_targets", "none")}, {"aov_targets": found.get("aov_targets", "none")})
         if why:
             raise ResumeError(f"{state_file}: cannot resume: {why}")
         if acc.complete.shape[0] != len(r.targets):  # a checkpoint from before AOVs were recorded
