@@ -109,8 +109,8 @@ def time_table(args) -> list[dict]:
             runs.append(time.perf_counter() - t0)
         row = {"resolution": [w, h], "first_seconds": first, "median_seconds": statistics.median(runs),
                "runs": runs, "mpixels_per_second": w * h / statistics.median(runs) / 1e6}
-        print(f"denoise {w}x{h}: first call {first:.3f} s, median of {args.repeat} {row['median_seconds']:.3f} s "
-              f"({row['mpixels_per_second']:.2f} Mpixel/s)", flush=True)
+        print(f"denoise {w}x{h}: first call {first:.3f} s, median of {args.repeat} "
+              f"{row['median_seconds']:.3f} s ({row['mpixels_per_second']:.2f} Mpixel/s)", flush=True)
         rows.append(row)
     return rows
 

@@ -81,7 +81,8 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
     opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
                    gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,
                    exposure=exposure, aovs=aovs, denoise=denoise, time_budget=time_budget,
-                   checkpoint=checkpoint, resume=resume, overrides=tuple(overrides), workers=workers, scheduler=scheduler, progress=prog,
+                   checkpoint=checkpoint, resume=resume, overrides=tuple(overrides), workers=workers,
+                   scheduler=scheduler, progress=prog,
                    started=started)
     with StopSignals() as signals:
         out = run(scene_file, opts, signals)

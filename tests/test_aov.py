@@ -264,8 +264,10 @@ def test_aovs_resume_bit_identically_and_refuse_another_set(folder):
     """A render stopped inside a chunk (here: 68 spp, on the draw grid, then --resume to 100)
     with AOVs resumes to the very layers of an uninterrupted render; a resume asking for other
     AOV targets is refused with one line."""
-    run = lambda *a: CliRunner().invoke(main, ["render", "wall.yaml", "--aov", "albedo,depth,variance",  # noqa: E731
-                                               "--quiet", *a])
+    def run(*a):
+        return CliRunner().invoke(main, ["render", "wall.yaml", "--aov", "albedo,depth,variance",
+                                         "--quiet", *a])
+
     assert run("--spp", "68", "--checkpoint", "1000", "-o", "c.exr").exit_code == 0
     r = run("--spp", "100", "--resume", "-o", "c.exr")
     assert r.exit_code == 0, r.output

@@ -129,8 +129,8 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
     if opts.resume:
         acc, found = st.load(state_file)
         # aov_targets is recorded only when there are some: compare it both ways.
-        why = st.mismatch(record, found) or st.mismatch(
-            {"aov_targets": record.get("aov_targets", "none")}, {"aov_targets": found.get("aov_targets", "none")})
+        targets = [{"aov_targets": d.get("aov_targets", "none")} for d in (record, found)]
+        why = st.mismatch(record, found) or st.mismatch(*targets)
         if why:
             raise ResumeError(f"{state_file}: cannot resume: {why}")
         if acc.complete.shape[0] != len(r.targets):  # a checkpoint from before AOVs were recorded
