@@ -238,6 +238,12 @@ def test_denoise_writes_raw_and_says_so(folder):
     plain, _, _ = render("wall.yaml", aovs=())
     np.testing.assert_array_equal(raw, plain.image)   # the raw beauty is the render, untouched
     assert not np.array_equal(image, raw)             # the image is the denoised one
+    import cv2
+
+    from mcpt.output.image import to_srgb8
+
+    png = cv2.imread("d.png", cv2.IMREAD_UNCHANGED)[..., ::-1]
+    np.testing.assert_array_equal(png, to_srgb8(image))  # and so is the PNG
     # The denoised wall is smoother than the 16-spp beauty.
     assert np.std(np.diff(image, axis=1)) < np.std(np.diff(raw, axis=1))
 
@@ -278,3 +284,28 @@ def test_aovs_resume_bit_identically_and_refuse_another_set(folder):
                                   "--quiet"])
     assert r.exit_code == 2
     assert len(r.stderr.strip().splitlines()) == 1 and "aov_targets" in r.stderr, r.stderr
+
+
+def test_farm_renders_the_same_layers(folder):
+    """Dask workers compute the AOV targets too: the farm's EXR equals one process's, every
+    channel bit for bit."""
+    pytest.importorskip("distributed")
+    from distributed import Client
+
+    from mcpt.farm.cluster import local_cluster
+    from mcpt.farm.session import Options, run
+    from mcpt.farm.signals import StopSignals
+
+    aovs = ("albedo", "normal", "depth", "variance")
+    cluster = local_cluster(1, lp_threads=1)
+    try:
+        with Client(cluster) as client:
+            for out, c in (("one.exr", None), ("farm.exr", client)):
+                run(folder / "wall.yaml", Options([str(folder / out)], spp=70, aovs=aovs, client=c),
+                    StopSignals())
+    finally:
+        cluster.close()
+    a, b = read_exr_channels("one.exr"), read_exr_channels("farm.exr")
+    assert set(a) == set(b) == {"R", "G", "B", *channel_names(aovs)}
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
