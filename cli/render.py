@@ -28,6 +28,13 @@ from .options import finite, positive_finite, render_options
               help="PNG only: exposure in stops.")
 @click.option("--clamp", type=float, default=None, callback=positive_finite,
               help="BIASED: clamp each sample's largest component to this value (off by default).")
+@click.option("--aov", "aov_text", default=None, metavar="NAME[,NAME...]",
+              help="EXR only: extra layers from the same samples: albedo (albedo.R/G/B), normal "
+                   "(normal.X/Y/Z, world space), depth (depth.Z, distance along the camera ray), "
+                   "variance (variance.R/G/B, of the mean); see 'mcpt info'.")
+@click.option("--denoise", is_flag=True,
+              help="BIASED: denoise with Intel Open Image Denoise (needs mcpt[denoise]) fed the "
+                   "albedo and normal AOVs; the EXR keeps the raw beauty as raw.R/G/B.")
 @click.option("--time", "time_budget", type=float, default=None, callback=positive_finite,
               metavar="SECONDS",
               help="Wall-time budget: stop at the pass boundary before it runs out and write the "
@@ -50,16 +57,22 @@ from .options import finite, positive_finite, render_options
 @click.option("--quiet", is_flag=True, help="No progress output.")
 @reports_errors
 def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs,
-           overrides, exposure, clamp, time_budget, checkpoint, resume, workers, scheduler,
-           progress_mode, as_json, quiet):
+           overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, workers,
+           scheduler, progress_mode, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     started = time.perf_counter()
     from mcpt.farm.session import Options, run
     from mcpt.farm.signals import StopSignals
+    from mcpt.gpu.aov import parse as parse_aovs
     from mcpt.output.image import check_output_path
 
     for output in outputs:
         check_output_path(output)  # fail before minutes of rendering, not after
+    aovs = parse_aovs(aov_text)
+    if denoise:
+        from mcpt.output.denoise import version
+
+        version()  # no denoiser: one line, before any rendering
     if workers is not None or scheduler is not None:
         from mcpt.farm.cluster import require_dask
 
@@ -67,8 +80,9 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
     prog = progress_mod.make(progress_mode, quiet)
     opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
                    gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,
-                   exposure=exposure, time_budget=time_budget, checkpoint=checkpoint, resume=resume,
-                   overrides=tuple(overrides), workers=workers, scheduler=scheduler, progress=prog,
+                   exposure=exposure, aovs=aovs, denoise=denoise, time_budget=time_budget,
+                   checkpoint=checkpoint, resume=resume, overrides=tuple(overrides), workers=workers,
+                   scheduler=scheduler, progress=prog,
                    started=started)
     with StopSignals() as signals:
         out = run(scene_file, opts, signals)
@@ -88,6 +102,7 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
                "resumed_from": out.resumed_from, "stopped_by": out.stopped_by,
                "checkpoint": str(out.checkpoint) if out.checkpoint else None,
                **({"farm": out.farm} if out.farm else {}),
+               "aovs": list(aovs), "denoised": denoise,
                "mcpt_version": __version__}
     if as_json:
         click.echo(json.dumps(summary, indent=2))
@@ -97,5 +112,6 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
         click.echo(f"wrote {', '.join(outputs)}: {meta['width']}x{meta['height']}, {result.spp} spp"
                    f"{budget}, {result.bounces} bounces, {result.render_seconds:.2f} s render "
                    f"({meta['paths_per_second'] / 1e6:.2f} Mpaths/s), set-up {meta['setup_seconds']:.2f} s"
-                   + (f", {result.dropped_samples} non-finite samples dropped" if result.dropped_samples else ""),
+                   + (f", {result.dropped_samples} non-finite samples dropped" if result.dropped_samples else "")
+                   + (", denoised (OIDN, biased)" if denoise else ""),
                    err=True)

@@ -18,9 +18,10 @@ struct Path {
     float pdf_bsdf_prev;  // solid-angle pdf of the BSDF sample that made ray (MIS)
     bool delta_prev;      // ray came from a specular lobe (or the camera)
     float eta_scale;      // product of eta^2 crossed (roulette, pbrt-v4)
+    bool aov_open;        // MCPT_AOV: the sample has not added its AOVs yet (glsl/aov.glsl)
 };
 
-Path camera_path(Ray r) { return Path(r, vec3(1.0), vec3(0.0), 1, 0.0, true, 1.0); }
+Path camera_path(Ray r) { return Path(r, vec3(1.0), vec3(0.0), 1, 0.0, true, 1.0, true); }
 
 #if MCPT_CONTINUE
 #define SEGMENT_TICKS (MCPT_LOOP_LIMIT / 4)
@@ -30,7 +31,7 @@ bool segment_spent() { return g_loop_iterations >= SEGMENT_TICKS; }
 layout(binding = 0, rgba32f) uniform image2D u_state0;  // ray.o, k
 layout(binding = 1, rgba32f) uniform image2D u_state1;  // ray.d, pdf_bsdf_prev
 layout(binding = 2, rgba32f) uniform image2D u_state2;  // beta, eta_scale
-layout(binding = 3, rgba32f) uniform image2D u_state3;  // L, 2 * sample j of the draw + delta_prev
+layout(binding = 3, rgba32f) uniform image2D u_state3;  // L, 4 * sample j of the draw + 2 * aov_open + delta_prev
 layout(std430, binding = 0) buffer PathCount { uint n_unfinished; };  // reset by the host
 uniform int u_continue;  // 0: start camera paths; 1: continue the stored ones
 
@@ -40,15 +41,15 @@ Path path_load(ivec2 px, out int j) {
     vec4 s0 = imageLoad(u_state0, px), s1 = imageLoad(u_state1, px);
     vec4 s2 = imageLoad(u_state2, px), s3 = imageLoad(u_state3, px);
     int w = int(s3.w);
-    j = w >> 1;
-    return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, (w & 1) != 0, s2.w);
+    j = w >> 2;
+    return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, (w & 1) != 0, s2.w, (w & 2) != 0);
 }
 
 void path_store(ivec2 px, Path P, int j) {
     imageStore(u_state0, px, vec4(P.ray.o, float(P.k)));
     imageStore(u_state1, px, vec4(P.ray.d, P.pdf_bsdf_prev));
     imageStore(u_state2, px, vec4(P.beta, P.eta_scale));
-    imageStore(u_state3, px, vec4(P.L, float(2 * j + (P.delta_prev ? 1 : 0))));
+    imageStore(u_state3, px, vec4(P.L, float(4 * j + (P.aov_open ? 2 : 0) + (P.delta_prev ? 1 : 0))));
     atomicAdd(n_unfinished, 1u);
 }
 

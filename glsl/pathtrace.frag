@@ -16,6 +16,9 @@
 #if MCPT_TEXTURES
 #include "texture.glsl"
 #endif
+#if MCPT_AOV
+#include "aov.glsl"
+#endif
 
 uniform ivec4 u_tile;    // x0, y0 (rows from the top), width, height of the tile being rendered
 #if MCPT_CLAMP
@@ -25,6 +28,14 @@ uniform float u_clamp;   // biased: largest allowed sample component (off unless
 layout(location = 0) out vec4 o_color;
 #if MCPT_VARIANCE
 layout(location = 1) out vec4 o_square;  // per-pixel sum of squares -> variance of the mean
+#endif
+// AOVs (glsl/aov.glsl): the two targets after the beauty's (GLSL 4.30 wants literal locations).
+#if MCPT_AOV && MCPT_VARIANCE
+layout(location = 2) out vec4 o_aov_a;  // albedo.rgb, depth
+layout(location = 3) out vec4 o_aov_b;  // normal.xyz, events
+#elif MCPT_AOV
+layout(location = 1) out vec4 o_aov_a;
+layout(location = 2) out vec4 o_aov_b;
 #endif
 
 // Power heuristic with beta = 2 (Veach 1997, sec. 9.2.4).
@@ -81,6 +92,9 @@ bool path_step(inout Path P) {
 #endif
             P.L += P.beta * m.emission * w;
         }
+#if MCPT_AOV
+        aov_hit(P, h, m, n, cos_o, -ray.d);
+#endif
         if (k > MCPT_BOUNCES) return false;
         if (material_back_black(m, cos_o > 0.0)) return false;  // one-sided, seen from behind
         vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
@@ -230,6 +244,9 @@ void main() {
         if (segment_spent()) { unfinished = true; break; }
 #endif
         if (path_step(P)) continue;
+#if MCPT_AOV
+        aov_end(P);
+#endif
         vec3 v = sample_value(P.L);
         // Non-finite or cut short by llvmpipe's loop limit: dropped (what earlier draws added
         // for it is taken back) and counted in alpha.
@@ -247,6 +264,9 @@ void main() {
     // or MCPT_CONTINUE is off): the sample in flight and those not started are dropped, counted.
     // (The compiler knows how the loop's breaks leave j, so the counter, not j, tells.)
     if (!unfinished && loop_limit_reached()) {
+#if MCPT_AOV
+        aov_end(P);
+#endif
         sum -= before; sum2 -= before * before;
         dropped += float(u_samples - j);
         before = vec3(0.0);
@@ -254,6 +274,9 @@ void main() {
     if (unfinished) {
         vec3 v = sample_value(P.L);
         if (non_finite(v)) {  // not worth continuing: dropped now
+#if MCPT_AOV
+            aov_end(P);
+#endif
             sum -= before; sum2 -= before * before; dropped += 1.0;
             unfinished = ++j < u_samples;
             if (unfinished) {
@@ -271,5 +294,9 @@ void main() {
     o_color = vec4(sum, dropped);
 #if MCPT_VARIANCE
     o_square = vec4(sum2, 0.0);
+#endif
+#if MCPT_AOV
+    o_aov_a = g_aov_a;
+    o_aov_b = g_aov_b;
 #endif
 }

@@ -21,10 +21,16 @@ from pathlib import Path
 
 from . import __version__
 from .gpu.context import GLContext, shared_context
+from .gpu.aov import AOVS
+from .gpu.aov import parse as parse_aovs
 from .gpu.features import Features, for_world, loop_limit_for
 from .gpu.pack import pack
 from .gpu.render import Renderer, RenderResult
+from .output.denoise import version as denoiser_version
 from .output.image import check_output_path, write_image
+from .output.layers import computed as computed_aovs
+from .output.layers import feature_flags as aov_flags
+from .output.layers import finish
 from .scene import Scene, load_scene
 from .shapes.world import World, load_world
 
@@ -40,14 +46,15 @@ class Prepared:
 
 def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
             gl_backend=None, features_mode: str = "scene", clamp: float | None = None,
-            feature_flags: dict | None = None, sampler: str | None = None) -> Prepared:
+            feature_flags: dict | None = None, sampler: str | None = None, aovs=()) -> Prepared:
+    """``aovs``: the AOVs to compute (mcpt/gpu/aov.py; for --denoise include albedo and normal)."""
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
     gl = shared_context(gl_backend)
     world = load_world(scene)
-    flags = {"loop_limit": loop_limit_for(gl.renderer), **(feature_flags or {})}
+    flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:
         flags["sampler"] = sampler
     feats = for_world(world, clamp=clamp is not None, **flags)
@@ -74,13 +81,18 @@ def metadata(p: Prepared, result: RenderResult) -> dict:
 
 def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolution=None,
                  gl_backend=None, features_mode="scene", clamp=None, exposure=0.0, progress=None,
-                 sampler=None):
-    """Render a scene (file or Scene), write each of ``outputs``; returns (result, metadata)."""
+                 sampler=None, aovs=(), denoise=False):
+    """Render a scene (file or Scene), write each of ``outputs``; returns (result, metadata).
+    ``aovs``: names from mcpt.gpu.aov.AOVS written as EXR layers; ``denoise``: OIDN (biased)."""
     outputs = [outputs] if isinstance(outputs, (str, Path)) else list(outputs)
     for output in outputs:
         check_output_path(output)
+    aovs = parse_aovs(aovs)
+    if denoise:
+        denoiser_version()  # no denoiser: one clear error before minutes of rendering
     p = prepare(scene, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
-                gl_backend=gl_backend, features_mode=features_mode, clamp=clamp, sampler=sampler)
+                gl_backend=gl_backend, features_mode=features_mode, clamp=clamp, sampler=sampler,
+                aovs=computed_aovs(aovs, denoise))
     if progress is not None and hasattr(progress, "pixels"):
         progress.pixels = p.scene.camera.width * p.scene.camera.height
     rs = p.scene.render
@@ -88,8 +100,10 @@ def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolu
     meta = metadata(p, result)
     p.renderer.release()
     exr_meta = {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}
+    image, layers, extra = finish(result, aovs, denoise)
+    exr_meta.update(extra)
     for output in outputs:
-        write_image(output, result.image, exr_meta, exposure)
+        write_image(output, image, exr_meta, exposure, layers=layers)
     return result, meta
 
 
@@ -109,6 +123,8 @@ def describe(scene, counters: bool = False, **kwargs) -> dict:
             "buffers": {**{k: v for k, v in p.renderer.setup["upload_bytes"].items()},
                         "random_per_pass": p.renderer.setup["random_bytes_per_pass"]},
             "gl": {**p.gl.describe(), **p.gl.limits()},
+            "aovs": {name: f"{','.join(f'{name}.{c}' for c in ch)}: {what}"
+                     for name, (ch, what) in AOVS.items()},
             "setup": {"compile_seconds": p.renderer.setup["compile_seconds"],
                       "upload_seconds": p.renderer.setup["upload_seconds"],
                       "tiles": p.renderer.setup["tiles"], "total_seconds": p.setup_seconds},

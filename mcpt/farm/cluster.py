@@ -19,6 +19,7 @@ import os
 
 import numpy as np
 
+from ..output.layers import computed as computed_aovs
 from .accumulate import CHUNK
 from .worker import FarmError, job_id, render_chunks
 
@@ -57,6 +58,7 @@ def job_for(p, opts) -> dict:
             "bounces": p.scene.render.bounces, "seed": p.scene.render.seed,
             "resolution": [cam.width, cam.height], "gl_backend": opts.gl_backend,
             "features_mode": opts.features_mode, "clamp": opts.clamp, "sampler": p.features.sampler,
+            "aovs": list(computed_aovs(opts.aovs, opts.denoise)),
             "scene_hash": scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles]}
 
 

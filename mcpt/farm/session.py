@@ -15,6 +15,8 @@ from pathlib import Path
 from ..api import metadata, prepare
 from ..errors import McptError
 from ..output.image import write_image
+from ..output.layers import computed as computed_aovs
+from ..output.layers import finish
 from . import state as st
 from .accumulate import Accumulator
 from .signals import StopSignals
@@ -38,6 +40,8 @@ class Options:
     sampler: str | None = None            # None: the default (mcpt/gpu/features.py SAMPLERS[0])
     clamp: float | None = None
     exposure: float = 0.0
+    aovs: tuple = ()                      # EXR layers (mcpt/gpu/aov.py AOVS), in canonical order
+    denoise: bool = False                 # OIDN on the beauty (biased); computes albedo + normal
     time_budget: float | None = None      # seconds of wall time from ``started``
     checkpoint: float | None = None       # seconds between checkpoints
     resume: bool = False
@@ -126,10 +130,15 @@ def header(meta: dict, record: dict, spp_requested: int) -> dict:
 def run(scene_file, opts: Options, signals: StopSignals) -> Outcome:
     from ..scene import load_scene
 
+    if opts.denoise:
+        from ..output.denoise import version
+
+        version()  # no denoiser: one clear error before minutes of rendering
     scene = load_scene(scene_file, overrides=opts.overrides) if opts.overrides else scene_file
     p = prepare(scene, spp=opts.spp, bounces=opts.bounces, seed=opts.seed,
                 resolution=opts.resolution, gl_backend=opts.gl_backend,
-                features_mode=opts.features_mode, clamp=opts.clamp, sampler=opts.sampler)
+                features_mode=opts.features_mode, clamp=opts.clamp, sampler=opts.sampler,
+                aovs=computed_aovs(opts.aovs, opts.denoise))
     if hasattr(opts.progress, "pixels"):
         opts.progress.pixels = p.scene.camera.width * p.scene.camera.height
     try:
@@ -142,14 +151,19 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
     r = p.renderer
     spp, seed = p.scene.render.spp, p.scene.render.seed
     record = st.settings(p.scene, features_mode=opts.features_mode, clamp=opts.clamp,
-                         sampler=p.features.sampler)
+                         sampler=p.features.sampler, aovs=computed_aovs(opts.aovs, opts.denoise))
     state_file = st.state_path(opts.outputs[0])
     acc = Accumulator.empty(len(r.targets), r.height, r.width)
     if opts.resume:
         acc, found = st.load(state_file)
-        why = st.mismatch(record, found)
+        # aov_targets is recorded only when there are some: compare it both ways.
+        targets = [{"aov_targets": d.get("aov_targets", "none")} for d in (record, found)]
+        why = st.mismatch(record, found) or st.mismatch(*targets)
         if why:
             raise ResumeError(f"{state_file}: cannot resume: {why}")
+        if acc.complete.shape[0] != len(r.targets):  # a checkpoint from before AOVs were recorded
+            raise ResumeError(f"{state_file}: cannot resume: it holds {acc.complete.shape[0]} "
+                              f"accumulation targets, this render {len(r.targets)} (other --aov)")
         if acc.done > spp:
             raise ResumeError(f"{state_file}: cannot resume: the checkpoint has {acc.done} passes, "
                               f"more than the {spp} asked for")
@@ -221,6 +235,8 @@ def _result(p, acc: Accumulator, seconds: float, random_seconds: float):
 def _write(p, opts, acc, spp, record, seconds, random_seconds, resumed_from) -> list:
     result = _result(p, acc, seconds, random_seconds)
     hdr = header(_metadata(p, result, resumed_from), record, spp)
+    image, layers, extra = finish(result, opts.aovs, opts.denoise)
+    hdr.update(extra)  # mcpt:aovs lists the layers written (the record, the ones computed)
     for output in opts.outputs:
-        write_image(output, result.image, hdr, opts.exposure)
+        write_image(output, image, hdr, opts.exposure, layers=layers)
     return list(opts.outputs)

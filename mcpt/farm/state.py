@@ -61,12 +61,17 @@ def scene_hash(scene) -> str:
 
 
 def settings(scene, *, features_mode: str = "scene", clamp: float | None = None,
-             sampler: str = "sobol") -> dict:
-    """Everything besides the spp that decides a render's numbers, by name."""
+             sampler: str = "sobol", aovs=()) -> dict:
+    """Everything besides the spp that decides a render's numbers, by name. ``aovs``: the AOVs
+    computed (they decide the accumulation targets); recorded only when there are some, so
+    checkpoints of plain renders read as before."""
     cam, rs = scene.camera, scene.render
-    return {"scene_hash": scene_hash(scene), "width": cam.width, "height": cam.height,
-            "bounces": rs.bounces, "seed": rs.seed, "features_mode": features_mode,
-            "sampler": sampler, "clamp": None if clamp is None else float(clamp)}
+    out = {"scene_hash": scene_hash(scene), "width": cam.width, "height": cam.height,
+           "bounces": rs.bounces, "seed": rs.seed, "features_mode": features_mode,
+           "sampler": sampler, "clamp": None if clamp is None else float(clamp)}
+    if aovs:
+        out["aov_targets"] = ",".join(aovs)
+    return out
 
 
 def mismatch(expected: dict, found: dict, keys=None, here: str = "this render",

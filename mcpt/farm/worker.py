@@ -46,7 +46,7 @@ def _prepared(job: dict):
         scene = load_scene(job["scene"], overrides=tuple(job["overrides"]))
         p = prepare(scene, bounces=job["bounces"], seed=job["seed"], resolution=job["resolution"],
                     gl_backend=job["gl_backend"], features_mode=job["features_mode"],
-                    clamp=job["clamp"], sampler=job["sampler"])
+                    clamp=job["clamp"], sampler=job["sampler"], aovs=tuple(job.get("aovs", ())))
         found = settings(p.scene, features_mode=job["features_mode"], clamp=job["clamp"],
                          sampler=p.features.sampler)
         if found["scene_hash"] != job["scene_hash"]:

@@ -92,6 +92,7 @@ class Features:
     one_sided: bool = False         # some material has two_sided: false (black back side)
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
+    aov: bool = False               # albedo, normal, depth targets (glsl/aov.glsl, --aov, --denoise)
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
     counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
@@ -179,6 +180,7 @@ class Features:
             "MCPT_ONE_SIDED": b(self.one_sided),
             "MCPT_CLAMP": b(self.clamp),
             "MCPT_VARIANCE": b(self.variance),
+            "MCPT_AOV": b(self.aov),
             "MCPT_LOOP_LIMIT": self.loop_limit,
             "MCPT_COUNTERS": b(self.counters),
             "MCPT_CONTINUE": b(self.continues),
@@ -199,7 +201,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
            sampling: str = "mis", russian_roulette: bool = True,
-           bvh: bool | None = None, clamp: bool = False, variance: bool = False,
+           bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
            sampler: str = "sobol", continuation: bool = True) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
@@ -228,6 +230,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         one_sided=one_sided,
         clamp=clamp,
         variance=variance,
+        aov=aov,
         loop_limit=loop_limit,
         counters=counters,
         bvh_dense=bvh_dense,

@@ -33,6 +33,7 @@ import numpy as np
 from ..errors import McptError
 from ..shading.sampler import RandomNumbers
 from ..shading.sobol import seed32
+from . import aov as aov_mod
 from . import shader
 from .context import GLContext
 from .features import SAMPLES_PER_DRAW, Features
@@ -64,6 +65,7 @@ class RenderResult:
     render_seconds: float        # passes only (set-up excluded)
     random_seconds: float        # generating random numbers on the host (inside render_seconds)
     setup: dict = field(default_factory=dict)  # compile seconds, upload bytes per buffer, tiles
+    aovs: dict = field(default_factory=dict)   # features.aov: albedo, normal, depth (mcpt/gpu/aov.py)
 
     @property
     def paths_per_second(self) -> float:
@@ -133,7 +135,10 @@ class Renderer:
         if self.width > cap or self.height > cap:
             raise RenderError(f"{self.width}x{self.height} exceeds GL_MAX_TEXTURE_SIZE / "
                               f"GL_MAX_VIEWPORT_DIMS = {cap} on {gl.renderer}; lower --resolution")
-        check_host_memory(self.width, self.height, 2 if features.variance else 1)
+        # Targets: beauty, then squares (variance), then the two AOV targets (glsl/aov.glsl).
+        n_targets = 1 + int(features.variance) + (aov_mod.AOV_TARGETS if features.aov else 0)
+        self.aov_target = 1 + int(features.variance) if features.aov else None
+        check_host_memory(self.width, self.height, n_targets)
         t0 = time.perf_counter()
         self.program = shader.program(ctx, "fullscreen.vert", "pathtrace.frag", features.preamble(),
                                       features.key)
@@ -162,7 +167,7 @@ class Renderer:
         # Samples per pixel per draw (path regeneration); 1 where numbers are uploaded per pass.
         self.samples_per_draw = 1 if features.uploads_random else SAMPLES_PER_DRAW
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
-                        for _ in range(2 if features.variance else 1)]
+                        for _ in range(n_targets)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
         self.paths = PathState(ctx, self.width, self.height) if features.continues else None
         self.vao = ctx.vertex_array(self.program, [])
@@ -292,11 +297,14 @@ class Renderer:
         if self.features.variance:
             var = np.maximum(total[1, ..., :3] / n - image**2, 0.0) * n / np.maximum(n - 1.0, 1.0)
             variance = (var / n).astype(np.float32)
+        aovs = {}
+        if self.aov_target is not None:
+            aovs = aov_mod.means(total[self.aov_target], total[self.aov_target + 1])
         setup = dict(self.setup)
         if self.paths is not None:
             setup["continuation_draws"] = self.paths.draws
         return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
-                            dropped, seconds, random_seconds, setup)
+                            dropped, seconds, random_seconds, setup, aovs)
 
     def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
         """The accumulation targets as (targets, H, W, 4), row 0 at the top; then cleared."""

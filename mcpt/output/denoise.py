@@ -45,3 +45,12 @@ def denoise(color: np.ndarray, albedo: np.ndarray | None = None,
     except (RuntimeError, ValueError, TypeError) as exc:
         raise DenoiseError(f"denoising failed: {' '.join(str(exc).split())}") from None
     return np.asarray(out, np.float32)
+
+
+def version() -> str:
+    """``"oidn 2.5.1"``: what the EXR header names as the denoiser (DenoiseError without the extra)."""
+    try:
+        from pyoidn.version import oidn_version
+    except ImportError:
+        raise DenoiseError("--denoise needs Intel Open Image Denoise: pip install 'mcpt[denoise]'") from None
+    return f"oidn {oidn_version}"
