@@ -36,3 +36,26 @@ def pack_normals(normals: np.ndarray) -> np.ndarray:
     out = np.zeros((normals.shape[0], 4), np.uint32)
     out[:, :3] = octahedral_encode(normals)
     return out
+
+
+def unit_vertex_normals(normals: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Renormalise vertex normals; zero / non-finite ones fall back to area-weighted face normals.
+
+    Assimp leaves a zero normal where all adjacent faces were degenerate or the file gave a
+    broken one; a zero normal would turn into NaN in the shader's normalize().
+    """
+    length = np.linalg.norm(normals, axis=1)
+    broken = ~(np.isfinite(length) & (length > 0))
+    out = normals / np.where(broken, 1.0, length)[:, None]
+    if broken.any():
+        a, b, c = (vertices[faces[:, k]] for k in range(3))
+        face_n = np.cross(b - a, c - a)  # length = 2 * area, so the sum is area weighted
+        acc = np.zeros_like(vertices)
+        for k in range(3):
+            np.add.at(acc, faces[:, k], face_n)
+        acc_len = np.linalg.norm(acc[broken], axis=1)
+        fixed = np.zeros((int(broken.sum()), 3))
+        ok = acc_len > 0
+        fixed[ok] = acc[broken][ok] / acc_len[ok, None]
+        out[broken] = fixed  # still zero only for vertices no triangle uses
+    return out

@@ -31,6 +31,8 @@ import numpy as np
 
 from ..errors import McptError
 from . import obj
+from ..shading.normals import unit_vertex_normals
+from .dedup import first_of_duplicates
 
 __all__ = ["Mesh", "MeshError", "MeshMaterial", "load_mesh"]
 
@@ -343,7 +345,7 @@ def _assemble(
         face_mat_arr = face_mat_arr[unique]
 
     if normal_arr is not None:
-        normal_arr = _unit_normals(normal_arr, vertices, face_arr)
+        normal_arr = unit_vertex_normals(normal_arr, vertices, face_arr)
 
     return Mesh(
         name=path.stem,
@@ -359,47 +361,8 @@ def _assemble(
 
 
 
-def first_of_duplicates(faces: np.ndarray) -> np.ndarray:
-    """Sorted indices of the first occurrence of every triangle, equal up to a cyclic rotation
-    of its corners (index based: Assimp's JoinIdenticalVertices gives equal corners equal indices)."""
-    if len(faces) < 2:
-        return np.arange(len(faces))
-    r = np.argmin(faces, axis=1)
-    canon = np.take_along_axis(faces, (r[:, None] + np.arange(3)) % 3, axis=1).astype(np.int64)
-    n = int(canon.max()) + 1
-    if n < 1 << 21:  # one int64 key per triangle
-        _, first = np.unique((canon[:, 0] << 42) | (canon[:, 1] << 21) | canon[:, 2], return_index=True)
-    else:
-        order = np.lexsort((canon[:, 2], canon[:, 1], canon[:, 0]))
-        c = canon[order]
-        new = np.ones(len(c), bool)
-        new[1:] = np.any(c[1:] != c[:-1], axis=1)
-        # lexsort is stable, so the first of each run is the earliest occurrence
-        first = order[new]
-    return np.sort(first)
 
 
-def _unit_normals(normals: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Renormalise vertex normals; zero / non-finite ones fall back to area-weighted face normals.
-
-    Assimp leaves a zero normal where all adjacent faces were degenerate or the file gave a
-    broken one; a zero normal would turn into NaN in the shader's normalize().
-    """
-    length = np.linalg.norm(normals, axis=1)
-    broken = ~(np.isfinite(length) & (length > 0))
-    out = normals / np.where(broken, 1.0, length)[:, None]
-    if broken.any():
-        a, b, c = (vertices[faces[:, k]] for k in range(3))
-        face_n = np.cross(b - a, c - a)  # length = 2 * area, so the sum is area weighted
-        acc = np.zeros_like(vertices)
-        for k in range(3):
-            np.add.at(acc, faces[:, k], face_n)
-        acc_len = np.linalg.norm(acc[broken], axis=1)
-        fixed = np.zeros((int(broken.sum()), 3))
-        ok = acc_len > 0
-        fixed[ok] = acc[broken][ok] / acc_len[ok, None]
-        out[broken] = fixed  # still zero only for vertices no triangle uses
-    return out
 
 
 def _materials(path: Path, dicts: list[dict]) -> list[MeshMaterial]:

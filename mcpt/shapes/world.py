@@ -28,7 +28,8 @@ from ..shading.texture import Texture, TextureError, load_texture
 from . import geometry, obj
 from .bvh import BVH
 from .bvh_build import build_bvh
-from .mesh import MeshError, first_of_duplicates, load_mesh
+from .dedup import first_of_duplicates
+from .mesh import MeshError, load_mesh
 
 log = logging.getLogger("mcpt")
 
