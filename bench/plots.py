@@ -161,6 +161,10 @@ def plot_error(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
     spp = [r["spp"] for r in recs]
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.8), layout="constrained")
     a1.plot(t, rel, "o", color="tab:blue", label="mcpt (GLSL on llvmpipe)")
+    if all("denoised_relmse" in r for r in recs):  # mcpt[denoise] installed: OIDN on each render
+        a1.plot([r["render_seconds"] + r["denoise_seconds"] for r in recs],
+                [r["denoised_relmse"] for r in recs], "v--", color="tab:purple", ms=5, lw=1,
+                label="mcpt + OIDN denoiser (BIASED; time includes denoising)")
     fd = sm.get("fit_relmse_vs_seconds")
     if fd:
         xs = np.geomspace(min(t) / 2, max(t) * 20, 50)

@@ -86,6 +86,12 @@ def section_error(d: dict) -> list[str]:
     for tt, ts in zip(sm.get("time_to_relmse", []), sm.get("spp_to_relmse", [])):
         L.append(f"- time to relMSE {tt['threshold']:g}: **{_f(tt['seconds'], '.3g')} s** "
                  f"({tt['method']}; ≈ {_f(ts['seconds'], '.3g')} spp)")
+    if recs and all("denoised_relmse" in r for r in recs):
+        L += ["", "Denoised with OIDN (mcpt[denoise]; albedo and normal AOVs) — **biased**: the error "
+                  "no longer falls as 1/spp and stalls at the filter's bias.", "",
+              "| spp | render + denoise s | relMSE raw | relMSE denoised (biased) |", "|---:|---:|---:|---:|"]
+        L += [f"| {r['spp']} | {r['render_seconds'] + r['denoise_seconds']:.3f} | {r['relmse']:.4g} | "
+              f"{r['denoised_relmse']:.4g} |" for r in recs]
     mean = recs[-1]["mean_rgb"] if recs else None
     if mean:
         ref = sm["reference_mean_rgb"]

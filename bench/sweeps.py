@@ -342,17 +342,30 @@ def error_sweep(cfg: Config, log=_noop) -> dict:
     path = _scene_path(cfg, scenes.cornell(), "cornell")
     w, h = cfg.err_resolution
     ref, ref_info = load_reference(cfg, path, log)
-    s = _open(path, cfg, resolution=(w, h))
+    from mcpt.output import denoise
+
+    # With OIDN (mcpt[denoise]) each render also yields the albedo and normal AOVs (the beauty is
+    # bit-identical with or without them) and a denoised image: a second, BIASED curve (issue #12).
+    dn = denoise.available()
+    s = _open(path, cfg, resolution=(w, h), flags={"aov": True} if dn else None)
     records = []
     try:
         for spp in cfg.err_spp:
             r, m = _render(s, spp, cfg.seed)
             e = common.errors(r.image, ref)
+            extra = {}
+            if dn:
+                t0 = time.perf_counter()
+                img = denoise.denoise(r.image, r.aovs["albedo"], r.aovs["normal"])
+                dt = time.perf_counter() - t0
+                extra = {"denoise_seconds": dt,
+                         "denoised_relmse": common.errors(img, ref)["relmse"]}
             records.append({"scene": "cornell", "width": w, "height": h, "bounces": r.bounces,
                             "seed": cfg.seed, **m, **e, "relmse_x_spp": e["relmse"] * spp,
-                            "loadavg_1min": common.loadavg()})
+                            **extra, "loadavg_1min": common.loadavg()})
             log(f"spp {spp:5d}: {m['render_seconds']:7.2f} s  relMSE {e['relmse']:.3e}  "
-                f"RMSE {e['rmse']:.4f}  MAE {e['mae']:.4f}")
+                f"RMSE {e['rmse']:.4f}  MAE {e['mae']:.4f}"
+                + (f"  denoised relMSE {extra['denoised_relmse']:.3e} (biased)" if extra else ""))
     finally:
         s.p.renderer.release()
     summary = error_summary(records)
