@@ -45,6 +45,9 @@ from .options import finite, positive_finite, render_options
 @click.option("--resume", is_flag=True,
               help="Continue from OUTPUT.state.npz (first -o) to the spp asked for; bit-identical "
                    "to an uninterrupted render; refuses a changed scene or setting.")
+@click.option("--first-pass", type=click.IntRange(min=0), default=0, show_default=True, metavar="N",
+              help="Render passes N .. spp-1 of the seed only (N a multiple of 64): disjoint ranges "
+                   "of one seed, rendered anywhere, `mcpt merge` into passes 0 .. spp-1.")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Render on a Dask LocalCluster of N worker processes (needs mcpt[farm]).")
 @click.option("--scheduler", default=None, metavar="tcp://HOST:8786",
@@ -57,8 +60,8 @@ from .options import finite, positive_finite, render_options
 @click.option("--quiet", is_flag=True, help="No progress output.")
 @reports_errors
 def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs,
-           overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, workers,
-           scheduler, progress_mode, as_json, quiet):
+           overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, first_pass,
+           workers, scheduler, progress_mode, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     started = time.perf_counter()
     from mcpt.farm.session import Options, run
@@ -81,7 +84,8 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
     opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
                    gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,
                    exposure=exposure, aovs=aovs, denoise=denoise, time_budget=time_budget,
-                   checkpoint=checkpoint, resume=resume, overrides=tuple(overrides), workers=workers,
+                   checkpoint=checkpoint, resume=resume, first_pass=first_pass,
+                   overrides=tuple(overrides), workers=workers,
                    scheduler=scheduler, progress=prog,
                    started=started)
     with StopSignals() as signals:

@@ -279,7 +279,7 @@ def test_merge_is_the_exact_spp_weighted_mean(folder):
     (["-D", "materials.white.albedo=[0.8,0.8,0.8]"], "the scene differs"),
     (["--bounces", "4"], "bounces is 2 in s1.exr but 4 in other.exr"),
     (["--resolution", "8x8"], "width"),
-    (["--seed", "1"], "seed 1 is also the seed of s1.exr"),
+    (["--seed", "1"], "overlap passes 0..7 of s1.exr"),
 ])
 def test_merge_refuses_another_scene_or_setting(folder, args, needle):
     assert invoke("scene.yaml", "--seed", "1", "--spp", "8", "-o", "s1.exr").exit_code == 0
@@ -379,3 +379,20 @@ def test_tiles_drawn_one_by_one_give_the_whole_image(folder, gl):
         assert whole.partial is not None and np.any(whole.totals() != 0)
     finally:
         r.release()
+
+
+def test_disjoint_pass_ranges_of_one_seed_merge_into_the_whole_render(folder):
+    """Issue #11: `--first-pass` renders passes N.. of a seed; disjoint ranges merge into the
+    image of all their passes (up to float32 rounding of the parts); overlaps are refused."""
+    assert invoke("scene.yaml", "--seed", "5", "--spp", "64", "-o", "a.exr").exit_code == 0
+    r = invoke("scene.yaml", "--seed", "5", "--spp", "192", "--first-pass", "64", "-o", "b.exr")
+    assert r.exit_code == 0, r.output
+    assert header("b.exr")["mcpt:first_pass"] == "64" and header("b.exr")["mcpt:spp"] == "128"
+    assert CliRunner().invoke(main, ["merge", "a.exr", "b.exr", "-o", "m.exr"]).exit_code == 0
+    assert invoke("scene.yaml", "--seed", "5", "--spp", "192", "-o", "whole.exr").exit_code == 0
+    np.testing.assert_allclose(pixels("m.exr"), pixels("whole.exr"), rtol=2e-6, atol=1e-7)
+    assert not np.array_equal(pixels("a.exr"), pixels("whole.exr"))  # the parts differ
+    r = CliRunner().invoke(main, ["merge", "whole.exr", "b.exr", "-o", "x.exr"])
+    assert r.exit_code == 2 and "overlap" in r.stderr
+    r = invoke("scene.yaml", "--spp", "100", "--first-pass", "30", "-o", "c.exr")
+    assert r.exit_code == 2 and "multiple of 64" in r.stderr

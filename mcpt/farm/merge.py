@@ -10,7 +10,10 @@ Exactly that, pixel for pixel (a pixel whose non-finite samples were dropped wei
 the same: the error is at most dropped/spp of that pixel). The inputs must agree on everything
 but the seed and the spp (scene hash, resolution, bounces, compile options): the EXR headers carry
 them as ``mcpt:*`` keys (mcpt/farm/session.py). Two renders with the same seed share their passes
-(every render starts at pass 0), so they are refused: their mean would count the same paths twice.
+(every render starts at pass 0 unless ``--first-pass`` says otherwise), so renders whose pass ranges
+of one seed overlap are refused: their mean would count the same paths twice. Disjoint ranges of
+one seed (``--first-pass 0..N``, ``N..M``) merge into the image of passes 0..M, up to float32
+rounding of the parts.
 """
 
 from __future__ import annotations
@@ -53,16 +56,19 @@ def merge(paths: list[str | Path]) -> tuple[np.ndarray, dict]:
         images.append(image)
         records.append(_record(header, path))
     first = records[0]
-    seeds = {}
+    ranges: dict[str, list] = {}  # seed -> [(first pass, end pass, path)]
     for path, rec in zip(paths, records):
         why = mismatch(first, rec, COMPARED, here=str(paths[0]), there=str(path))
         if why:
             raise MergeError(f"cannot merge {path}: {why}")
-        if rec["seed"] in seeds:
-            raise MergeError(f"cannot merge {path}: seed {rec['seed']} is also the seed of "
-                             f"{seeds[rec['seed']]}, so they share their passes (render with "
-                             "different --seed values)")
-        seeds[rec["seed"]] = path
+        lo = int(rec.get("first_pass", 0))
+        hi = lo + int(rec["spp"])
+        for a, b, other in ranges.get(rec["seed"], []):
+            if lo < b and a < hi:
+                raise MergeError(f"cannot merge {path}: passes {lo}..{hi - 1} of seed {rec['seed']} "
+                                 f"overlap passes {a}..{b - 1} of {other}, so they share paths "
+                                 "(render other seeds, or disjoint --first-pass ranges)")
+        ranges.setdefault(rec["seed"], []).append((lo, hi, path))
     spp = np.array([int(r["spp"]) for r in records], np.float64)
     acc = np.zeros(images[0].shape, np.float64)
     for n, image in zip(spp, images):

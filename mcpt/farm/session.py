@@ -45,6 +45,7 @@ class Options:
     time_budget: float | None = None      # seconds of wall time from ``started``
     checkpoint: float | None = None       # seconds between checkpoints
     resume: bool = False
+    first_pass: int = 0                   # render passes first_pass .. spp-1 (a pass range)
     overrides: tuple = ()                 # -D KEY=VALUE
     workers: int | None = None
     scheduler: str | None = None
@@ -121,9 +122,10 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 60:.3g} minutes"
 
 
-def header(meta: dict, record: dict, spp_requested: int) -> dict:
-    """EXR header keys: the render's metadata plus the record ``mcpt merge`` and resume compare."""
-    out = {**meta, **record, "spp_requested": spp_requested, "first_pass": 0}
+def header(meta: dict, record: dict, spp_requested: int, first_pass: int = 0) -> dict:
+    """EXR header keys: the render's metadata plus the record ``mcpt merge`` and resume compare.
+    ``mcpt:spp`` is the passes the image holds, ``mcpt:first_pass`` the first of them."""
+    out = {**meta, **record, "spp_requested": spp_requested, "first_pass": first_pass}
     return {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in out.items()}
 
 
@@ -154,6 +156,9 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
                          sampler=p.features.sampler, aovs=computed_aovs(opts.aovs, opts.denoise))
     state_file = st.state_path(opts.outputs[0])
     acc = Accumulator.empty(len(r.targets), r.height, r.width)
+    if opts.first_pass:
+        _check_range(opts, spp, acc.chunk)
+        acc.done = opts.first_pass  # passes before it belong to another render of this seed
     if opts.resume:
         acc, found = st.load(state_file)
         # aov_targets is recorded only when there are some: compare it both ways.
@@ -211,7 +216,7 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
     elif acc.done > 0:
         with signals.writing():
             written = _write(p, opts, acc, spp, record, seconds(), timing["random"], resumed_from)
-    result = _result(p, acc, seconds(), timing["random"])
+    result = _result(p, acc, seconds(), timing["random"], opts.first_pass)
     farm = {k: v for k, v in timing.items() if k != "random"}
     stopped = signals.signum if control.stop == "signal" else None  # after the last pass: done
     return Outcome(result, _metadata(p, result, resumed_from), spp, stopped,
@@ -228,13 +233,28 @@ def _metadata(p, result, resumed_from: int) -> dict:
     return meta
 
 
-def _result(p, acc: Accumulator, seconds: float, random_seconds: float):
-    return p.renderer.result(acc.totals(), acc.done, p.scene.render.seed, seconds, random_seconds)
+def _check_range(opts: Options, spp: int, chunk: int) -> None:
+    """A pass range (--first-pass) starts on a read-back boundary and is a plain render."""
+    if opts.first_pass % chunk or not 0 < opts.first_pass < spp:
+        raise RangeError(f"--first-pass {opts.first_pass}: must be a multiple of {chunk} below the "
+                         f"spp ({spp}), the pass the range ends before")
+    if opts.resume or opts.checkpoint is not None or opts.workers or opts.scheduler:
+        raise RangeError("--first-pass renders a plain range: not with --resume, --checkpoint, "
+                         "--workers or --scheduler")
+
+
+class RangeError(McptError, ValueError):
+    pass
+
+
+def _result(p, acc: Accumulator, seconds: float, random_seconds: float, first_pass: int = 0):
+    return p.renderer.result(acc.totals(), acc.done - first_pass, p.scene.render.seed, seconds,
+                             random_seconds)
 
 
 def _write(p, opts, acc, spp, record, seconds, random_seconds, resumed_from) -> list:
-    result = _result(p, acc, seconds, random_seconds)
-    hdr = header(_metadata(p, result, resumed_from), record, spp)
+    result = _result(p, acc, seconds, random_seconds, opts.first_pass)
+    hdr = header(_metadata(p, result, resumed_from), record, spp, opts.first_pass)
     image, layers, extra = finish(result, opts.aovs, opts.denoise)
     hdr.update(extra)  # mcpt:aovs lists the layers written (the record, the ones computed)
     for output in opts.outputs:
