@@ -14,7 +14,6 @@ Ratios are mcpt / Mitsuba: paths/s ratio > 1 and time-to-error ratio < 1 mean mc
 
 from __future__ import annotations
 
-import inspect
 import itertools
 import json
 import resource
@@ -73,62 +72,27 @@ def ref_scene_yaml(scene_dir: Path) -> dict:
 
 
 # ------------------------------------------------------------------------------------------------
-# mcpt's samplers: passed through to its API where it takes one (detected, not assumed)
-# ------------------------------------------------------------------------------------------------
-
-
-def mcpt_sampler_api() -> tuple[tuple[str, ...], str | None]:
-    """(sampler names, where the name goes: 'prepare', 'render' or None).
-
-    None (an mcpt without a sampler choice) means one sampler, 'independent', passed nowhere.
-    The names come from a ``SAMPLERS``/``samplers`` tuple in mcpt.api, mcpt.sampler,
-    mcpt.gpu.render or mcpt.gpu.features when there is one, else ('independent', 'sobol')."""
-    import importlib
-
-    from mcpt import api
-    from mcpt.gpu.render import Renderer
-
-    if "sampler" in inspect.signature(api.prepare).parameters:
-        where = "prepare"
-    elif "sampler" in inspect.signature(Renderer.render).parameters:
-        where = "render"
-    else:
-        return ("independent",), None
-    for mod in ("mcpt.api", "mcpt.shading.sampler", "mcpt.gpu.render", "mcpt.gpu.features"):
-        try:
-            m = importlib.import_module(mod)
-        except ImportError:
-            continue
-        names = getattr(m, "SAMPLERS", None) or getattr(m, "samplers", None)
-        if isinstance(names, (tuple, list)) and names and all(isinstance(n, str) for n in names):
-            return tuple(names), where
-        if isinstance(names, dict) and names:
-            return tuple(names), where
-    return ("independent", "sobol"), where
-
-
 class _Mcpt:
     """One prepared mcpt scene with one sampler, kept open for the whole run."""
 
     renderer = "mcpt"
 
-    def __init__(self, path: Path, cfg, res: int, sampler: str, where: str | None):
+    def __init__(self, path: Path, cfg, res: int, sampler: str):
         from mcpt.api import prepare
 
-        self.sampler, self.where = sampler, where
+        self.sampler = sampler
         self.label = f"mcpt {sampler}"
-        kw = {"sampler": sampler} if where == "prepare" else {}
-        self.p = prepare(path, seed=cfg.seed, resolution=(res, res), gl_backend=cfg.gl_backend, **kw)
-        self._kw = {"sampler": sampler} if where == "render" else {}
+        self.p = prepare(path, seed=cfg.seed, resolution=(res, res), gl_backend=cfg.gl_backend,
+                         sampler=sampler)
         t0 = time.perf_counter()
-        self.p.renderer.render(1, cfg.seed, **self._kw)  # llvmpipe compiles at the first draw
+        self.p.renderer.render(1, cfg.seed)  # llvmpipe compiles at the first draw
         self.info = {"setup_seconds": self.p.setup_seconds, "triangles": self.p.world.n_triangles,
                      "first_pass_seconds": time.perf_counter() - t0,
                      "features": self.p.features.defines()}
 
     def run(self, spp: int, seed: int, work: Path) -> tuple[np.ndarray, dict]:
         ru0 = resource.getrusage(resource.RUSAGE_SELF)
-        r = self.p.renderer.render(spp, seed, **self._kw)
+        r = self.p.renderer.render(spp, seed)
         ru1 = resource.getrusage(resource.RUSAGE_SELF)
         cpu = (ru1.ru_utime + ru1.ru_stime) - (ru0.ru_utime + ru0.ru_stime)
         return r.image, {"seconds": r.render_seconds, "cpu_seconds": cpu, "spp_actual": spp,
@@ -176,8 +140,9 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
     out = Path(cfg.out)
     work = out / "peer"
     work.mkdir(parents=True, exist_ok=True)
-    names, where = mcpt_sampler_api()
-    wanted = pc.mcpt_samplers or names
+    from mcpt.gpu.features import SAMPLERS
+
+    wanted = pc.mcpt_samplers or SAMPLERS
     avail = mitsuba.available()
     mi_note = None
     if not avail.ok:
@@ -200,8 +165,8 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
         mc = []
         for s in wanted:
             try:
-                mc.append(_Mcpt(path, cfg, res, s, where))
-            except Exception as exc:  # a sampler this mcpt does not really take: say so, go on
+                mc.append(_Mcpt(path, cfg, res, s))
+            except Exception as exc:  # one sampler failing must not hide the others: say so, go on
                 log(f"peer: mcpt sampler {s!r} failed on {name}: {type(exc).__name__}: {exc}")
         ms = []
         for s in pc.mitsuba_samplers if mi_note is None else ():
@@ -260,7 +225,7 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
     summary = summarize(records, pc.thresholds)
     summary["mitsuba"] = {"available": mi_note is None, "version": avail.version, "note": mi_note,
                           "python": str(mitsuba.python()), "tool": str(mitsuba.tool())}
-    summary["mcpt_samplers"] = {"offered": list(names), "passed_to": where}
+    summary["mcpt_samplers"] = list(wanted)
     summary["setup"] = setups
     for line in summary_lines(summary):
         log(line)

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -241,8 +239,9 @@ def test_peer_sweep_without_mitsuba_runs_mcpt_and_says_so(gl, tmp_path, monkeypa
     skip = [ln for ln in lines if "Mitsuba 3 not available" in ln]
     assert len(skip) == 1 and "skipping its side" in skip[0]
     recs = res["records"]
-    names, _ = peer_run.mcpt_sampler_api()
-    assert {r["renderer"] for r in recs} == {"mcpt"} and len(recs) == 3 * len(names)
+    from mcpt.gpu.features import SAMPLERS
+
+    assert {r["renderer"] for r in recs} == {"mcpt"} and len(recs) == 3 * len(SAMPLERS)
     assert all(r["relmse"] > 0 and r["paths_per_second"] > 0 for r in recs)
     assert res["summary"]["ratios"] == [] and not res["summary"]["mitsuba"]["available"]
     ser = res["summary"]["series"]["cornell/mcpt/independent"]
@@ -251,27 +250,21 @@ def test_peer_sweep_without_mitsuba_runs_mcpt_and_says_so(gl, tmp_path, monkeypa
     assert plots.plot_peer(res, tmp_path)[0].stat().st_size > 0
 
 
-def test_mcpt_sampler_is_passed_where_the_api_takes_it(monkeypatch):
-    """Before mcpt has a sampler choice: ('independent',), passed nowhere. Once ``prepare`` takes
-    ``sampler=`` and a SAMPLERS tuple names them, every name is offered and goes to prepare."""
+def test_peer_renders_every_mcpt_sampler_with_that_sampler(monkeypatch, tmp_path):
+    """Each mcpt side of the peer bench is prepared with its own sampler (mcpt.gpu.features)."""
     import mcpt.api
-    import mcpt.gpu.features
 
-    def prepare(scene, *, sampler=None, **kw):  # the signature is all that is looked at
-        raise AssertionError
+    seen = []
+
+    def prepare(scene, *, sampler=None, **kw):
+        seen.append(sampler)
+        raise RuntimeError("stop here")
 
     monkeypatch.setattr(mcpt.api, "prepare", prepare)
-    monkeypatch.setattr(mcpt.gpu.features, "SAMPLERS", ("sobol", "independent"), raising=False)
-    assert peer_run.mcpt_sampler_api() == (("sobol", "independent"), "prepare")
-    monkeypatch.delattr(mcpt.gpu.features, "SAMPLERS")
-    monkeypatch.delattr(mcpt.api, "prepare")
-
-    def plain(scene, *, spp=None, **kw):
-        raise AssertionError
-
-    monkeypatch.setattr(mcpt.api, "prepare", plain, raising=False)
-    names, where = peer_run.mcpt_sampler_api()
-    assert "independent" in names and (where is None) == (names == ("independent",))
+    for s in ("sobol", "independent"):
+        with pytest.raises(RuntimeError):
+            peer_run._Mcpt(tmp_path / "x.yaml", type("C", (), {"seed": 0, "gl_backend": None})(), 8, s)
+    assert seen == ["sobol", "independent"]
 
 
 def test_peer_sweep_with_a_broken_mitsuba_says_so_once(gl, tmp_path, monkeypatch):
