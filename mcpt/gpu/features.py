@@ -35,6 +35,10 @@ SAMPLERS = ("sobol", "independent")
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
 
+# Up to this many triangles, a scene without BVH has its count compiled in and its brute-force
+# loop written out in full (glsl/bvh.glsl MCPT_TRI_CONST; the shader writes out exactly this many).
+TRI_CONST_MAX = 64
+
 SAMPLING_MODES = ("mis", "nee", "bsdf")
 
 # llvmpipe (gallivm's loop limiter) stops the loops of a shader invocation after 65535
@@ -95,6 +99,7 @@ class Features:
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
     counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
+    tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     continuation: bool = True       # with a loop limit: continue long paths in further draws
                                     # (derive() leaves it off where no path can need it)
 
@@ -165,6 +170,7 @@ class Features:
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(self.bvh),
             "MCPT_BVH_DENSE": b(self.bvh and self.bvh_dense),
+            "MCPT_TRI_CONST": 0 if self.bvh else self.tri_const,
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
             "MCPT_MAT_CONDUCTOR": b(self.conductor),
             "MCPT_MICROFACET": b(self.conductor and self.microfacet),
@@ -209,13 +215,15 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
     some used material has an albedo texture / smooth shading normals; ``fresnel_complex``: some
     conductor has ``fresnel: conductor``; ``one_sided``: some material has ``two_sided: false``.
     """
+    use_bvh = (n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh
     return Features(
         bounces=bounces,
         lights=n_emissive > 0,
         single_light=n_emissive == 1,
         sampling=sampling,
         russian_roulette=russian_roulette,
-        bvh=(n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh,
+        bvh=use_bvh,
+        tri_const=n_triangles if not use_bvh and 0 < n_triangles <= TRI_CONST_MAX else 0,
         diffuse="diffuse" in material_types,
         conductor="conductor" in material_types,
         microfacet="conductor" in material_types and rough,
