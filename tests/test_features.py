@@ -99,7 +99,7 @@ def test_continuation_is_compiled_only_where_a_path_can_outrun_a_draw():
 
 
 def test_small_scenes_compile_their_triangle_count_in():
-    from mcpt.gpu.features import TRI_CONST_MAX
+    from mcpt.gpu.features import TRI_CONST_MAX, derive
     kw = dict(bounces=8, n_emissive=2, material_types={"diffuse"})
     assert derive(n_triangles=36, **kw).defines()["MCPT_TRI_CONST"] == 36
     assert derive(n_triangles=TRI_CONST_MAX + 1, bvh=False, **kw).defines()["MCPT_TRI_CONST"] == 0
