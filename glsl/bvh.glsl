@@ -19,6 +19,16 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 #ifndef MCPT_TRI_CONST
 #define MCPT_TRI_CONST 0
 #endif
+#ifndef MCPT_VERT_COUNT
+#define MCPT_VERT_COUNT 0
+#endif
+#if !MCPT_BVH && MCPT_TRI_CONST > 0 && MCPT_VERT_COUNT > 0
+// Small scenes' distinct vertices (mcpt/shapes/geometry.py shared_vertices), padded to
+// 3 x TRI_CONST_MAX = 192 entries (features.py vertex_tables) so every written-out index is in range:
+// the u_tris texel of each distinct vertex, and each triangle's three distinct-vertex ids.
+const int TRI_VERT_ADDR[192] = int[](MCPT_VERT_ADDR);
+const int TRI_VERT_IDS[192] = int[](MCPT_TRI_VERT_IDS);
+#endif
 // Debug counters (MCPT_COUNTERS, mcpt/gpu/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS
 layout(std430, binding = 1) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
@@ -182,14 +192,33 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
     }
 #elif MCPT_TRI_CONST > 0
     // Small scene, its triangle count compiled in (features.py TRI_CONST_MAX): the loop is
-    // written out in full, every triangle at a constant address. Measured 1.35-1.45x the paths/s
-    // of the u_tri_count loop below on the Cornell box (issue #14): no loop, no per-group count
-    // checks, constant texel addresses. Same triangles, same order, same test: the same hits.
-    // (Reading them from a uniform array instead measured slower than from u_tris.)
+    // written out in full, every triangle at a constant address: 1.32-1.45x the paths/s of the
+    // u_tri_count loop below on the Cornell box (issue #14; no loop, no per-group count checks),
+    // and with each distinct vertex sheared once (below) 1.5x more again, 2.2x in all. Same
+    // triangles, same order, same test: the same hits. (Reading the triangles from a uniform
+    // array instead of u_tris measured slower; bench/ab.py.)
+#if MCPT_VERT_COUNT > 0
+    // Each distinct vertex is fetched and sheared once per ray, not once per triangle using it
+    // (the Cornell box: 36 triangles, 108 corners, far fewer vertices). The shear is a function
+    // of the vertex alone, computed exactly as intersect_tri_verts does: same bits, so the test
+    // stays watertight and finds the same hits.
+    vec3 tv[192];
+#define VERT_LOAD(k) \
+    if ((k) < MCPT_VERT_COUNT) \
+        tv[k] = tri_shear(r, p, uintBitsToFloat(texelFetch(u_tris, TRI_VERT_ADDR[k]).xyz));
+#define VERT_LOAD4(k) VERT_LOAD(k) VERT_LOAD(k + 1) VERT_LOAD(k + 2) VERT_LOAD(k + 3)
+#define VERT_LOAD16(k) VERT_LOAD4(k) VERT_LOAD4(k + 4) VERT_LOAD4(k + 8) VERT_LOAD4(k + 12)
+#define VERT_LOAD64(k) VERT_LOAD16(k) VERT_LOAD16(k + 16) VERT_LOAD16(k + 32) VERT_LOAD16(k + 48)
+    VERT_LOAD64(0) VERT_LOAD64(64) VERT_LOAD64(128)
+#define TRI_CONST_HIT(idx) intersect_sheared(tv[TRI_VERT_IDS[3 * (idx)]], \
+    tv[TRI_VERT_IDS[3 * (idx) + 1]], tv[TRI_VERT_IDS[3 * (idx) + 2]], h.t, t, bary)
+#else
+#define TRI_CONST_HIT(idx) intersect_tri(r, p, (idx), h.t, t, bary)
+#endif
 #define TRI_CONST_TEST(idx) \
     if ((idx) < MCPT_TRI_CONST) {  /* a constant: folded away past the count */ \
         float t; vec2 bary; \
-        if (intersect_tri(r, p, (idx), h.t, t, bary)) { \
+        if (TRI_CONST_HIT(idx)) { \
             h.t = t; h.tri = (idx); h.bary = bary; found = true; \
             if (any_hit) return true; \
         } \
@@ -202,6 +231,7 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
 #undef TRI_CONST_TEST16
 #undef TRI_CONST_TEST4
 #undef TRI_CONST_TEST
+#undef TRI_CONST_HIT
 #else
     // BVH_MAX_LEAF triangles per iteration: fewer loop iterations (see common.glsl).
     for (int i = 0; i < u_tri_count; i += BVH_MAX_LEAF) {

@@ -62,33 +62,55 @@ def test_brute_force_shader_path_agrees_with_bvh_path(gl):
     assert np.array_equal(t1, t2)
 
 
-def _gpu_brute(gl, tris32, origins, dirs, tri_const):
+
+def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False):
+    from mcpt.gpu.features import vertex_tables
+    from mcpt.shapes.geometry import shared_vertices
+
     probe = np.zeros((2 * len(origins), 4), np.uint32)
     probe[0::2, :3] = origins.astype(np.float32).view(np.uint32)
     probe[1::2, :3] = dirs.astype(np.float32).view(np.uint32)
-    return run_probe(gl, "probe_trace.frag", probe, len(origins),
-                     preamble=f"#define MCPT_BVH 0\n#define MCPT_TRI_CONST {tri_const}",
-                     key=("brute", tri_const),
+    preamble = f"#define MCPT_BVH 0\n#define MCPT_TRI_CONST {tri_const}"
+    if shared:
+        addr, ids = shared_vertices(tris32)
+        preamble += f"\n#define MCPT_VERT_COUNT {len(addr)}\n" + vertex_tables(addr, ids.ravel())
+    return run_probe(gl, "probe_trace.frag", probe, len(origins), preamble=preamble,
+                     key=("brute", tri_const, preamble),
                      tbos={"tris": pack_triangles(tris32, np.zeros(len(tris32), np.int32))},
                      uniforms={"u_tri_count": len(tris32)})
 
 
+def test_shared_vertices_index_the_same_corners():
+    from mcpt.shapes.geometry import shared_vertices
+
+    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    tris = mesh.vertices[mesh.faces[:40]].astype(np.float32)
+    addr, ids = shared_vertices(tris)
+    corners = tris.reshape(-1, 3)
+    assert len(addr) < 3 * len(tris)  # neighbouring faces share corners
+    assert np.array_equal(corners[addr][ids].reshape(tris.shape).view(np.uint32), tris.view(np.uint32))
+    assert np.array_equal(addr, np.sort(addr))  # numbered by first appearance
+
+
 def test_written_out_brute_force_agrees_bitwise(gl):
-    """glsl/bvh.glsl MCPT_TRI_CONST (small scenes, the loop written out) finds the same hit, bit
-    for bit, as the u_tri_count loop, for counts inside, at and past its groups of 4 and 16."""
+    """glsl/bvh.glsl MCPT_TRI_CONST (small scenes, the loop written out, with and without the
+    once-per-ray shear of shared vertices) finds the same hit, bit for bit, as the u_tri_count
+    loop, for counts inside, at and past its groups of 4 and 16."""
     from mcpt.gpu.features import TRI_CONST_MAX
     mesh = load_mesh(shared_path("models", "suzanne.obj"))
     all_tris = mesh.vertices[mesh.faces].astype(np.float32)
     rng = np.random.default_rng(11)
     for n in (1, 3, 17, 36, TRI_CONST_MAX):
-        tris32 = all_tris[rng.choice(len(all_tris), n, replace=False)]
-        # Rays from a sphere around the triangles towards random points on them, so most hit.
+        start = int(rng.integers(0, len(all_tris) - n))
+        tris32 = all_tris[start:start + n]  # consecutive faces: neighbours, shared corners
+        # Rays from a sphere around the triangles towards random points on them, so most hit;
+        # many pass near shared edges and vertices.
         w = rng.dirichlet((1, 1, 1), 2000)
         targets = np.einsum("nk,nkj->nj", w, tris32[rng.integers(0, n, 2000)].astype(np.float64))
         o = rng.normal(size=(2000, 3))
         o = targets.mean(0) + 3.0 * o / np.linalg.norm(o, axis=1, keepdims=True)
         d = (targets - o) / np.linalg.norm(targets - o, axis=1, keepdims=True)
         loop = _gpu_brute(gl, tris32, o, d, 0)
-        const = _gpu_brute(gl, tris32, o, d, n)
         assert (loop[:, 1] > 0).mean() > 0.5, n  # the rays really hit something
-        assert np.array_equal(loop, const), n
+        for shared in (False, True):
+            assert np.array_equal(loop, _gpu_brute(gl, tris32, o, d, n, shared)), (n, shared)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 
+from ..shapes.geometry import shared_vertices
 from ..shading.sampler import DIMS_CAMERA, DIMS_PER_BOUNCE, dims_for, layout_defines  # noqa: F401
 
 # Russian roulette starts after this many scattering events (Mitsuba's rr_depth is 5 path
@@ -75,6 +76,17 @@ def loop_limit_for(renderer: str) -> int:
 
 
 
+def vertex_tables(vert_addr, tri_vert_ids) -> str:
+    """The defines of glsl/bvh.glsl's written-out brute-force loop (small scenes): each distinct
+    vertex's u_tris texel and each corner's distinct-vertex index (mcpt/shapes/geometry.py
+    shared_vertices), padded to the shader's fixed 3 x TRI_CONST_MAX entries."""
+    n = 3 * TRI_CONST_MAX
+    if len(vert_addr) > n or len(tri_vert_ids) > n:
+        raise ValueError(f"at most {TRI_CONST_MAX} triangles have their vertex tables compiled in")
+    pad = lambda vals: ",".join(map(str, list(vals) + [0] * (n - len(vals))))  # noqa: E731
+    return f"#define MCPT_VERT_ADDR {pad(vert_addr)}\n#define MCPT_TRI_VERT_IDS {pad(tri_vert_ids)}"
+
+
 @dataclass(frozen=True)
 class Features:
     bounces: int                    # maximum scattering events (0: emitters only)
@@ -100,6 +112,8 @@ class Features:
     counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
+    vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
+    tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
     continuation: bool = True       # with a loop limit: continue long paths in further draws
                                     # (derive() leaves it off where no path can need it)
 
@@ -171,6 +185,7 @@ class Features:
             "MCPT_BVH": b(self.bvh),
             "MCPT_BVH_DENSE": b(self.bvh and self.bvh_dense),
             "MCPT_TRI_CONST": 0 if self.bvh else self.tri_const,
+            "MCPT_VERT_COUNT": 0 if self.bvh or not self.tri_const else len(self.vert_addr),
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
             "MCPT_MAT_CONDUCTOR": b(self.conductor),
             "MCPT_MICROFACET": b(self.conductor and self.microfacet),
@@ -191,7 +206,10 @@ class Features:
         }
 
     def preamble(self) -> str:
-        return "\n".join(f"#define {k} {v}" for k, v in self.defines().items())
+        lines = [f"#define {k} {v}" for k, v in self.defines().items()]
+        if self.defines()["MCPT_VERT_COUNT"]:
+            lines.append(vertex_tables(self.vert_addr, self.tri_vert_ids))
+        return "\n".join(lines)
 
     def everything(self) -> "Features":
         """The uber-shader: every optional code path compiled in (bounces stay as given)."""
@@ -248,9 +266,13 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     """The features of a built world (mcpt/shapes/world.py): what its used materials need."""
     mt, ids = world.materials, world.tri_material
     used = {mt.types[i] for i in mt.used(ids)}
-    return derive(
+    f = derive(
         bounces=world.scene.render.bounces if bounces is None else bounces,
         n_triangles=world.n_triangles, n_emissive=world.lights.count, material_types=used,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
+    if f.tri_const and not f.bvh:
+        addr, tv = shared_vertices(world.tris)
+        f = replace(f, vert_addr=tuple(int(a) for a in addr), tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    return f
