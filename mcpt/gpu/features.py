@@ -112,6 +112,8 @@ class Features:
     counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
+    tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
+    bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
     continuation: bool = True       # with a loop limit: continue long paths in further draws
@@ -166,6 +168,14 @@ class Features:
         return self.sampler == "independent"
 
     @property
+    def written_out(self) -> int:
+        """Triangles glsl/bvh.glsl tests in a written-out loop: a small scene's all (no BVH), or
+        the large tail of a (non-dense) BVH's triangles, before traversing the rest."""
+        if self.bvh and (self.bvh_dense or not self.bvh_start):
+            return 0
+        return self.tri_const
+
+    @property
     def key(self) -> tuple:
         return tuple(sorted(asdict(self).items()))
 
@@ -184,8 +194,10 @@ class Features:
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(self.bvh),
             "MCPT_BVH_DENSE": b(self.bvh and self.bvh_dense),
-            "MCPT_TRI_CONST": 0 if self.bvh else self.tri_const,
-            "MCPT_VERT_COUNT": 0 if self.bvh or not self.tri_const else len(self.vert_addr),
+            "MCPT_TRI_CONST": self.written_out,
+            "MCPT_TRI_FIRST": self.tri_first if self.written_out else 0,
+            "MCPT_BVH_START": self.bvh_start if self.written_out and self.bvh else 0,
+            "MCPT_VERT_COUNT": len(self.vert_addr) if self.written_out else 0,
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
             "MCPT_MAT_CONDUCTOR": b(self.conductor),
             "MCPT_MICROFACET": b(self.conductor and self.microfacet),
@@ -272,7 +284,13 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
-    if f.tri_const and not f.bvh:
-        addr, tv = shared_vertices(world.tris)
-        f = replace(f, vert_addr=tuple(int(a) for a in addr), tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    first = 0
+    if f.bvh and not f.bvh_dense:
+        first, start = world.bvh.large_tail()
+        if 0 < world.n_triangles - first <= TRI_CONST_MAX and first > 0:
+            f = replace(f, tri_const=world.n_triangles - first, tri_first=first, bvh_start=start)
+    if f.written_out:
+        addr, tv = shared_vertices(world.tris[first:])
+        f = replace(f, vert_addr=tuple(int(a) + 3 * first for a in addr),
+                    tri_vert_ids=tuple(int(i) for i in tv.ravel()))
     return f
