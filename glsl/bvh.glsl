@@ -99,8 +99,9 @@ bool leaf_hit(Ray r, RayPre p, int first, int count, bool any_hit, inout Hit h) 
 // but a traversal reaches them through many loop iterations).
 bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     bool found = false;
-    // The triangle count compiled in (features.py TRI_CONST_MAX): the loop is written out in full, every triangle at a constant address: 1.32-1.45x the paths/s of the
-    // u_tri_count loop below on the Cornell box (issue #14; no loop, no per-group count checks),
+    // The triangle count compiled in (features.py TRI_CONST_MAX): the loop is written out in
+    // full, every triangle at a constant address: 1.32-1.45x the paths/s of the u_tri_count
+    // loop (trace) on the Cornell box (issue #14; no loop, no per-group count checks),
     // and with each distinct vertex sheared once (below) 1.5x more again, 2.2x in all. Same
     // triangles, same order, same test: the same hits. (Reading the triangles from a uniform
     // array instead of u_tris measured slower; bench/ab.py.)
@@ -132,7 +133,8 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     }
 #define TRI_CONST_TEST4(k) TRI_CONST_TEST(k) TRI_CONST_TEST(k + 1) TRI_CONST_TEST(k + 2) TRI_CONST_TEST(k + 3)
 #define TRI_CONST_TEST16(k) TRI_CONST_TEST4(k) TRI_CONST_TEST4(k + 4) TRI_CONST_TEST4(k + 8) TRI_CONST_TEST4(k + 12)
-    BVH_COUNT(0, 3 * MCPT_TRI_CONST);
+    // Counters: no loop iterations, a fetch per distinct vertex (or per corner), every triangle.
+    BVH_COUNT(0, MCPT_VERT_COUNT > 0 ? MCPT_VERT_COUNT : 3 * MCPT_TRI_CONST);
     BVH_COUNT_TRIS(MCPT_TRI_CONST);
     TRI_CONST_TEST16(0) TRI_CONST_TEST16(16) TRI_CONST_TEST16(32) TRI_CONST_TEST16(48)  // TRI_CONST_MAX
 #undef TRI_CONST_TEST16
