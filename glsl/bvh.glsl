@@ -29,8 +29,8 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 // Small scenes' distinct vertices (mcpt/shapes/geometry.py shared_vertices), padded to
 // 3 x TRI_CONST_MAX = 192 entries (features.py vertex_tables) so every written-out index is in range:
 // the u_tris texel of each distinct vertex, and each triangle's three distinct-vertex ids.
-const int TRI_VERT_ADDR[192] = int[](MCPT_VERT_ADDR);
-const int TRI_VERT_IDS[192] = int[](MCPT_TRI_VERT_IDS);
+const int TRI_VERT_ADDR[192] = int[](TRI_VERT_ADDR_TABLE);
+const int TRI_VERT_IDS[192] = int[](TRI_VERT_IDS_TABLE);
 #endif
 // Debug counters (MCPT_COUNTERS, mcpt/gpu/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS

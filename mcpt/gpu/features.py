@@ -79,12 +79,13 @@ def loop_limit_for(renderer: str) -> int:
 def vertex_tables(vert_addr, tri_vert_ids) -> str:
     """The defines of glsl/bvh.glsl's written-out brute-force loop (small scenes): each distinct
     vertex's u_tris texel and each corner's distinct-vertex index (mcpt/shapes/geometry.py
-    shared_vertices), padded to the shader's fixed 3 x TRI_CONST_MAX entries."""
+    shared_vertices), padded to the shader's fixed 3 x TRI_CONST_MAX entries. Data, not feature
+    switches: their names are not MCPT_ defines (those are numbers, :meth:`Features.defines`)."""
     n = 3 * TRI_CONST_MAX
     if len(vert_addr) > n or len(tri_vert_ids) > n:
         raise ValueError(f"at most {TRI_CONST_MAX} triangles have their vertex tables compiled in")
     pad = lambda vals: ",".join(map(str, list(vals) + [0] * (n - len(vals))))  # noqa: E731
-    return f"#define MCPT_VERT_ADDR {pad(vert_addr)}\n#define MCPT_TRI_VERT_IDS {pad(tri_vert_ids)}"
+    return f"#define TRI_VERT_ADDR_TABLE {pad(vert_addr)}\n#define TRI_VERT_IDS_TABLE {pad(tri_vert_ids)}"
 
 
 @dataclass(frozen=True)
