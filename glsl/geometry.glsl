@@ -41,11 +41,15 @@ RayPre ray_pre(vec3 d) {
 // Watertight ray/triangle test: a ray through a shared edge or vertex hits at least one of the
 // triangles sharing it. `precise` stops fast-math from contracting the 2x2 determinants into
 // FMAs, which would break the exact antisymmetry of an edge shared by two triangles.
-bool intersect_tri_verts(Ray r, RayPre p, vec3 v0, vec3 v1, vec3 v2, float tmax,
-                         out float t, out vec2 bary) {
-    precise vec3 A = p.M * (v0 - r.o);
-    precise vec3 B = p.M * (v1 - r.o);
-    precise vec3 C = p.M * (v2 - r.o);
+//
+// Split in two so that a vertex shared by several triangles can be sheared once per ray
+// (glsl/bvh.glsl, small scenes): tri_shear of a vertex, then the test on three sheared vertices.
+vec3 tri_shear(Ray r, RayPre p, vec3 v) {
+    precise vec3 a = p.M * (v - r.o);
+    return a;
+}
+
+bool intersect_sheared(vec3 A, vec3 B, vec3 C, float tmax, out float t, out vec2 bary) {
     precise float U = C.x * B.y - C.y * B.x;
     precise float V = A.x * C.y - A.y * C.x;
     precise float W = B.x * A.y - B.y * A.x;
@@ -58,6 +62,12 @@ bool intersect_tri_verts(Ray r, RayPre p, vec3 v0, vec3 v1, vec3 v2, float tmax,
     if (!(t > 0.0 && t < tmax)) return false;  // also rejects NaN
     bary = vec2(V, W) * inv;
     return true;
+}
+
+bool intersect_tri_verts(Ray r, RayPre p, vec3 v0, vec3 v1, vec3 v2, float tmax,
+                         out float t, out vec2 bary) {
+    return intersect_sheared(tri_shear(r, p, v0), tri_shear(r, p, v1), tri_shear(r, p, v2),
+                             tmax, t, bary);
 }
 
 bool intersect_tri(Ray r, RayPre p, int tri, float tmax, out float t, out vec2 bary) {

@@ -60,3 +60,98 @@ def test_brute_force_shader_path_agrees_with_bvh_path(gl):
     assert np.isfinite(t1).mean() > 0.3
     assert np.array_equal(i1, i2)
     assert np.array_equal(t1, t2)
+
+
+
+def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False):
+    from mcpt.gpu.features import vertex_tables
+    from mcpt.shapes.geometry import shared_vertices
+
+    probe = np.zeros((2 * len(origins), 4), np.uint32)
+    probe[0::2, :3] = origins.astype(np.float32).view(np.uint32)
+    probe[1::2, :3] = dirs.astype(np.float32).view(np.uint32)
+    preamble = f"#define MCPT_BVH 0\n#define MCPT_TRI_CONST {tri_const}"
+    if shared:
+        addr, ids = shared_vertices(tris32)
+        preamble += f"\n#define MCPT_VERT_COUNT {len(addr)}\n" + vertex_tables(addr, ids.ravel())
+    return run_probe(gl, "probe_trace.frag", probe, len(origins), preamble=preamble,
+                     key=("brute", tri_const, preamble),
+                     tbos={"tris": pack_triangles(tris32, np.zeros(len(tris32), np.int32))},
+                     uniforms={"u_tri_count": len(tris32)})
+
+
+def test_shared_vertices_index_the_same_corners():
+    from mcpt.shapes.geometry import shared_vertices
+
+    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    tris = mesh.vertices[mesh.faces[:40]].astype(np.float32)
+    addr, ids = shared_vertices(tris)
+    corners = tris.reshape(-1, 3)
+    assert len(addr) < 3 * len(tris)  # neighbouring faces share corners
+    assert np.array_equal(corners[addr][ids].reshape(tris.shape).view(np.uint32), tris.view(np.uint32))
+    assert np.array_equal(addr, np.sort(addr))  # numbered by first appearance
+
+
+def test_written_out_brute_force_agrees_bitwise(gl):
+    """glsl/bvh.glsl MCPT_TRI_CONST (small scenes, the loop written out, with and without the
+    once-per-ray shear of shared vertices) finds the same hit, bit for bit, as the u_tri_count
+    loop, for counts inside, at and past its groups of 4 and 16."""
+    from mcpt.gpu.features import TRI_CONST_MAX
+    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    all_tris = mesh.vertices[mesh.faces].astype(np.float32)
+    rng = np.random.default_rng(11)
+    for n in (1, 3, 17, 36, TRI_CONST_MAX):
+        start = int(rng.integers(0, len(all_tris) - n))
+        tris32 = all_tris[start:start + n]  # consecutive faces: neighbours, shared corners
+        # Rays from a sphere around the triangles towards random points on them, so most hit;
+        # many pass near shared edges and vertices.
+        w = rng.dirichlet((1, 1, 1), 2000)
+        targets = np.einsum("nk,nkj->nj", w, tris32[rng.integers(0, n, 2000)].astype(np.float64))
+        o = rng.normal(size=(2000, 3))
+        o = targets.mean(0) + 3.0 * o / np.linalg.norm(o, axis=1, keepdims=True)
+        d = (targets - o) / np.linalg.norm(targets - o, axis=1, keepdims=True)
+        loop = _gpu_brute(gl, tris32, o, d, 0)
+        assert (loop[:, 1] > 0).mean() > 0.5, n  # the rays really hit something
+        for shared in (False, True):
+            assert np.array_equal(loop, _gpu_brute(gl, tris32, o, d, n, shared)), (n, shared)
+
+
+def test_large_triangles_tested_first_give_the_same_hits(gl):
+    """A mesh inside a box of large triangles: build_bvh puts the box in the root's right
+    subtree; testing it written out first and traversing from the root's left child
+    (MCPT_BVH_START, bvh.py large_tail) finds the same hits as traversing the whole tree."""
+    from mcpt.gpu.features import vertex_tables
+    from mcpt.shapes.geometry import shared_vertices
+
+    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    inner = mesh.vertices[mesh.faces].astype(np.float64)
+    lo, hi = inner.reshape(-1, 3).min(0) - 0.5, inner.reshape(-1, 3).max(0) + 0.5
+    c = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    box = np.array([c[list(t)] for a, b, cc, d in quads for t in ((a, b, cc), (a, cc, d))])
+    tris32 = np.concatenate([inner, box]).astype(np.float32)
+    bvh = build_bvh(tris32)
+    tris32 = tris32[bvh.order]
+    first, start = bvh.large_tail()
+    assert len(tris32) - first == len(box) and start > 0
+    addr, ids = shared_vertices(tris32[first:])
+    rng = np.random.default_rng(3)
+    n = 4000
+    o = lo + rng.random((n, 3)) * (hi - lo)  # inside the box: every ray hits something
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    probe = np.zeros((2 * n, 4), np.uint32)
+    probe[0::2, :3] = o.astype(np.float32).view(np.uint32)
+    probe[1::2, :3] = d.astype(np.float32).view(np.uint32)
+    tbos = {"nodes": bvh.gpu_nodes(tris32), "tris": pack_triangles(tris32, np.zeros(len(tris32), np.int32))}
+    plain = run_probe(gl, "probe_trace.frag", probe, n, preamble="#define MCPT_BVH 1",
+                      key=("bvh", 1), tbos=tbos, uniforms={"u_tri_count": len(tris32)})
+    pre = (f"#define MCPT_BVH 1\n#define MCPT_TRI_CONST {len(box)}\n#define MCPT_TRI_FIRST {first}\n"
+           f"#define MCPT_BVH_START {start}\n#define MCPT_VERT_COUNT {len(addr)}\n"
+           + vertex_tables(addr + 3 * first, ids.ravel()))
+    tail = run_probe(gl, "probe_trace.frag", probe, n, preamble=pre, key=("bvh-tail", pre),
+                     tbos=tbos, uniforms={"u_tri_count": len(tris32)})
+    assert (plain[:, 1] > 0).all()
+    assert ((plain[:, 1] - 1 >= first)).mean() > 0.3  # many rays end on the box
+    assert np.array_equal(plain[:, 0], tail[:, 0])  # the same distances
+    assert (plain == tail).all(axis=1).mean() > 0.999  # the same triangles but on exact ties

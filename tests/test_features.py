@@ -96,3 +96,14 @@ def test_continuation_is_compiled_only_where_a_path_can_outrun_a_draw():
     assert derive(bounces=1000, n_triangles=36, **kw).defines()["MCPT_CONTINUE"] == 1
     assert derive(bounces=8, n_triangles=36, **kw).defines()["MCPT_CONTINUE"] == 0
     assert derive(bounces=1000, n_triangles=36, continuation=False, **kw).defines()["MCPT_CONTINUE"] == 0
+
+
+def test_small_scenes_compile_their_triangle_count_in():
+    from mcpt.gpu.features import TRI_CONST_MAX, derive
+    kw = dict(bounces=8, n_emissive=2, material_types={"diffuse"})
+    assert derive(n_triangles=36, **kw).defines()["MCPT_TRI_CONST"] == 36
+    assert derive(n_triangles=TRI_CONST_MAX + 1, bvh=False, **kw).defines()["MCPT_TRI_CONST"] == 0
+    assert derive(n_triangles=100_000, **kw).defines()["MCPT_TRI_CONST"] == 0
+    # A BVH scene never reads the count; forcing the BVH on a small scene turns it off.
+    assert derive(n_triangles=36, bvh=True, **kw).defines()["MCPT_TRI_CONST"] == 0
+    assert derive(n_triangles=36, **kw).key != derive(n_triangles=37, **kw).key

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 
+from ..shapes.geometry import shared_vertices
 from ..shading.sampler import DIMS_CAMERA, DIMS_PER_BOUNCE, dims_for, layout_defines  # noqa: F401
 
 # Russian roulette starts after this many scattering events (Mitsuba's rr_depth is 5 path
@@ -34,6 +35,10 @@ SAMPLERS = ("sobol", "independent")
 
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
+
+# Up to this many triangles, a scene without BVH has its count compiled in and its brute-force
+# loop written out in full (glsl/bvh.glsl MCPT_TRI_CONST; the shader writes out exactly this many).
+TRI_CONST_MAX = 64
 
 SAMPLING_MODES = ("mis", "nee", "bsdf")
 
@@ -71,6 +76,18 @@ def loop_limit_for(renderer: str) -> int:
 
 
 
+def vertex_tables(vert_addr, tri_vert_ids) -> str:
+    """The defines of glsl/bvh.glsl's written-out brute-force loop (small scenes): each distinct
+    vertex's u_tris texel and each corner's distinct-vertex index (mcpt/shapes/geometry.py
+    shared_vertices), padded to the shader's fixed 3 x TRI_CONST_MAX entries. Data, not feature
+    switches: their names are not MCPT_ defines (those are numbers, :meth:`Features.defines`)."""
+    n = 3 * TRI_CONST_MAX
+    if len(vert_addr) > n or len(tri_vert_ids) > n:
+        raise ValueError(f"at most {TRI_CONST_MAX} triangles have their vertex tables compiled in")
+    pad = lambda vals: ",".join(map(str, list(vals) + [0] * (n - len(vals))))  # noqa: E731
+    return f"#define TRI_VERT_ADDR_TABLE {pad(vert_addr)}\n#define TRI_VERT_IDS_TABLE {pad(tri_vert_ids)}"
+
+
 @dataclass(frozen=True)
 class Features:
     bounces: int                    # maximum scattering events (0: emitters only)
@@ -96,6 +113,11 @@ class Features:
     loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
     counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
+    tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
+    tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
+    bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
+    vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
+    tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
     continuation: bool = True       # with a loop limit: continue long paths in further draws
                                     # (derive() leaves it off where no path can need it)
 
@@ -148,6 +170,14 @@ class Features:
         return self.sampler == "independent"
 
     @property
+    def written_out(self) -> int:
+        """Triangles glsl/bvh.glsl tests in a written-out loop: a small scene's all (no BVH), or
+        the large tail of a (non-dense) BVH's triangles, before traversing the rest."""
+        if self.bvh and (self.bvh_dense or not self.bvh_start):
+            return 0
+        return self.tri_const
+
+    @property
     def key(self) -> tuple:
         return tuple(sorted(asdict(self).items()))
 
@@ -166,6 +196,10 @@ class Features:
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(self.bvh),
             "MCPT_BVH_DENSE": b(self.bvh and self.bvh_dense),
+            "MCPT_TRI_CONST": self.written_out,
+            "MCPT_TRI_FIRST": self.tri_first if self.written_out else 0,
+            "MCPT_BVH_START": self.bvh_start if self.written_out and self.bvh else 0,
+            "MCPT_VERT_COUNT": len(self.vert_addr) if self.written_out else 0,
             "MCPT_MAT_DIFFUSE": b(self.diffuse),
             "MCPT_MAT_CONDUCTOR": b(self.conductor),
             "MCPT_MICROFACET": b(self.conductor and self.microfacet),
@@ -187,7 +221,10 @@ class Features:
         }
 
     def preamble(self) -> str:
-        return "\n".join(f"#define {k} {v}" for k, v in self.defines().items())
+        lines = [f"#define {k} {v}" for k, v in self.defines().items()]
+        if self.defines()["MCPT_VERT_COUNT"]:
+            lines.append(vertex_tables(self.vert_addr, self.tri_vert_ids))
+        return "\n".join(lines)
 
     def everything(self) -> "Features":
         """The uber-shader: every optional code path compiled in (bounces stay as given)."""
@@ -211,13 +248,15 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
     some used material has an albedo texture / smooth shading normals; ``fresnel_complex``: some
     conductor has ``fresnel: conductor``; ``one_sided``: some material has ``two_sided: false``.
     """
+    use_bvh = (n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh
     return Features(
         bounces=bounces,
         lights=n_emissive > 0,
         single_light=n_emissive == 1,
         sampling=sampling,
         russian_roulette=russian_roulette,
-        bvh=(n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh,
+        bvh=use_bvh,
+        tri_const=n_triangles if not use_bvh and 0 < n_triangles <= TRI_CONST_MAX else 0,
         diffuse="diffuse" in material_types,
         conductor="conductor" in material_types,
         microfacet="conductor" in material_types and rough,
@@ -243,9 +282,19 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     """The features of a built world (mcpt/shapes/world.py): what its used materials need."""
     mt, ids = world.materials, world.tri_material
     used = {mt.types[i] for i in mt.used(ids)}
-    return derive(
+    f = derive(
         bounces=world.scene.render.bounces if bounces is None else bounces,
         n_triangles=world.n_triangles, n_emissive=world.lights.count, material_types=used,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
+    first = 0
+    if f.bvh and not f.bvh_dense:
+        first, start = world.bvh.large_tail()
+        if 0 < world.n_triangles - first <= TRI_CONST_MAX and first > 0:
+            f = replace(f, tri_const=world.n_triangles - first, tri_first=first, bvh_start=start)
+    if f.written_out:
+        addr, tv = shared_vertices(world.tris[first:])
+        f = replace(f, vert_addr=tuple(int(a) + 3 * first for a in addr),
+                    tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    return f

@@ -127,6 +127,21 @@ class BVH:
         limit: such trees get the wide-leaf traversal (MCPT_BVH_DENSE, ``gpu_nodes(dense=True)``)."""
         return self.worst_sah_cost() > DENSE_SAH_COST
 
+    def large_tail(self) -> tuple[int, int]:
+        """(first, ref): the triangles first.. of the root's right subtree, where build_bvh puts
+        large triangles (the walls around a dense mesh), and the reference of the root's left
+        child in :meth:`gpu_nodes`' layout, where a traversal that has tested the tail on its own
+        starts (glsl/bvh.glsl MCPT_BVH_START). (num_triangles, 0) for a single-leaf tree."""
+        if self.is_leaf[0]:
+            return self.num_triangles, 0
+        right = int(self.nodes[0, 3])
+        leaf = self.is_leaf
+        first = int(self.leaf_first[right:][leaf[right:]].min())
+        if not leaf[1]:
+            return first, 4  # node 1 is the second interior record
+        tri_base = 4 * int((~leaf).sum())
+        return first, (tri_base + 3 * int(self.leaf_first[1])) | (int(self.leaf_count[1]) << GPU_COUNT_SHIFT)
+
     def gpu_nodes(self, tris_reordered: np.ndarray, dense: bool = False) -> np.ndarray:
         """The buffer glsl/bvh.glsl traverses: ``(4 I + 3 F + 1, 4)`` uint32 RGBA32UI texels.
 
