@@ -1,4 +1,5 @@
-"""BVH build time and tree quality: this tree's mcpt/bvh.py against the one at a git revision.
+"""BVH build time and tree quality: this tree's builder (mcpt/shapes/bvh_build.py) against the
+one at a git revision from before the package layout of issue #9 (a single mcpt/bvh.py).
 
 Both builders run in this process, alternating (A, B, A, B, ...), on the same triangles: wall
 and CPU seconds (CPU time is less disturbed by other processes on a shared machine), and each
@@ -52,7 +53,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=3)
     args = ap.parse_args(argv)
 
-    from mcpt import bvh as new
+    from mcpt.shapes import bvh_build as new
+    from mcpt.shapes.bvh import BVH
     old = load_base(args.base)
     tris = triangles(args.mesh, args.triangles)
     sides = {"A": old.build_bvh, "B": new.build_bvh}
@@ -67,7 +69,7 @@ def main(argv=None) -> int:
             wall[side].append(time.perf_counter() - w0)
     for side, name in (("A", args.base), ("B", "worktree")):
         t = trees[side]
-        sah = new.BVH(t.nodes, t.order, t.depth, t.max_leaf, t.build_seconds).sah_cost()
+        sah = BVH(t.nodes, t.order, t.depth, t.max_leaf, t.build_seconds).sah_cost()
         print(f"{side} {name:10s} {len(tris):,d} triangles: wall {min(wall[side]):.2f} s "
               f"(median {np.median(wall[side]):.2f}), CPU {min(cpu[side]):.2f} s "
               f"(median {np.median(cpu[side]):.2f}); nodes {t.num_nodes:,d}, depth {t.depth}, "
