@@ -325,14 +325,18 @@ def _flatten(levels: list[_Level], order: np.ndarray, tris: np.ndarray, n_tris: 
     # Leaf boxes: leaves partition [0, F) of the final order, so one reduceat does them all.
     leaf_ids = np.flatnonzero(leaf)
     leaf_ids = leaf_ids[np.argsort(start[leaf_ids])]
-    tri_lo = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2])[order]
-    tri_hi = np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2])[order]
+    # One axis at a time: gathering and reducing 1-D columns is several times faster than rows
+    # of an (F, 3) array, with the same values.
+    leaf_start = start[leaf_ids]
+    leaf_lo = np.empty((leaf_ids.size, 3))
+    leaf_hi = np.empty((leaf_ids.size, 3))
+    for k in range(3):
+        corner = [tris[:, j, k] for j in range(3)]
+        leaf_lo[:, k] = np.minimum.reduceat(np.minimum(np.minimum(*corner[:2]), corner[2])[order], leaf_start)
+        leaf_hi[:, k] = np.maximum.reduceat(np.maximum(np.maximum(*corner[:2]), corner[2])[order], leaf_start)
     lo = np.empty((n_nodes, 3))
     hi = np.empty((n_nodes, 3))
-    lo[leaf_ids], hi[leaf_ids] = _round_out(
-        np.minimum.reduceat(tri_lo, start[leaf_ids], axis=0),
-        np.maximum.reduceat(tri_hi, start[leaf_ids], axis=0),
-    )
+    lo[leaf_ids], hi[leaf_ids] = _round_out(leaf_lo, leaf_hi)
 
     # Interior boxes and subtree sizes bottom-up; children always live on the next level.
     subtree = np.ones(n_nodes, np.int64)
