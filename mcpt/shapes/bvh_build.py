@@ -10,7 +10,8 @@ built level by level with every node of a level handled by the same numpy operat
 Python work is O(depth), not O(triangles) or O(nodes): three index lists, each sorted by one
 centroid axis, are kept grouped by node and sorted inside every node; splitting a node at its
 median on axis k is then "the first half of list k goes left", and all three lists are
-stable-partitioned with one cumulative sum per level (the classic presorted kd-tree build).
+stable-partitioned once per level (the classic presorted kd-tree build). A node that becomes a
+leaf leaves the lists, so each level costs O(triangles still being split).
 Leaves hold at most `max_leaf` triangles; nodes whose centroids all coincide are still split
 in half by position, so depth is at most ceil(log2(F)) + 1 for any input (ceil(log2(F /
 max_leaf)) + 1 without SAH). The GPU buffer (BVH.gpu_nodes) is a different, traversal-shaped
