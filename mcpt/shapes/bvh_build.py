@@ -10,7 +10,8 @@ built level by level with every node of a level handled by the same numpy operat
 Python work is O(depth), not O(triangles) or O(nodes): three index lists, each sorted by one
 centroid axis, are kept grouped by node and sorted inside every node; splitting a node at its
 median on axis k is then "the first half of list k goes left", and all three lists are
-stable-partitioned with one cumulative sum per level (the classic presorted kd-tree build).
+stable-partitioned once per level (the classic presorted kd-tree build). A node that becomes a
+leaf leaves the lists, so each level costs O(triangles still being split).
 Leaves hold at most `max_leaf` triangles; nodes whose centroids all coincide are still split
 in half by position, so depth is at most ceil(log2(F)) + 1 for any input (ceil(log2(F /
 max_leaf)) + 1 without SAH). The GPU buffer (BVH.gpu_nodes) is a different, traversal-shaped
@@ -47,7 +48,10 @@ def build_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF, sah: b
     t_start = time.perf_counter()
     tris = np.asarray(tri_vertices)
     if tris.ndim == 3 and tris.shape[1:] == (3, 3) and len(tris) > 2 * max_leaf and np.isfinite(tris).all():
-        diag = np.linalg.norm(tris.max(axis=1).astype(np.float64) - tris.min(axis=1), axis=1)
+        # Corner-wise minimum/maximum: the same values as min/max(axis=1), 10x faster on (F, 3, 3).
+        hi = np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2])
+        lo = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2])
+        diag = np.linalg.norm(hi.astype(np.float64) - lo, axis=1)
         large = diag > LARGE_TRIANGLE_FACTOR * np.median(diag)
         if large.any() and not large.all():
             small_ids, large_ids = np.flatnonzero(~large), np.flatnonzero(large)
@@ -126,8 +130,8 @@ def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF,
     boxes = None
     if sah and n_tris <= SAH_MAX_TRIANGLES:
         boxes = np.empty((6, n_tris), np.float32)   # (lo, -hi) per column: mins only
-        boxes[:3] = tris.min(axis=1).T
-        boxes[3:] = -tris.max(axis=1).T
+        boxes[:3] = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2]).T
+        boxes[3:] = -np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2]).T
     levels, order = _split_levels(centroids, boxes, max_leaf)
     nodes = _flatten(levels, order, tris, n_tris)
     depth = len(levels)
@@ -162,62 +166,63 @@ def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
     always split, so leaves respect the cap either way.
     """
     n_tris = len(centroids)
-    # lists[k] = triangle ids grouped by node, sorted by centroid k inside each node. numpy's
-    # default sort is deterministic (same input, same order of ties) and 4x faster than its
-    # stable sort. int32 halves the memory traffic of the per-level gathers and scatters.
+    # lists[k] = triangle ids of the nodes still to split, grouped by node (in order of their
+    # start), sorted by centroid k inside each node. numpy's default sort is deterministic (same
+    # input, same order of ties) and 4x faster than its stable sort. int32 halves the memory
+    # traffic. A node that becomes a leaf writes its triangles to `order` and leaves the lists,
+    # so every per-level operation runs over the triangles still being split, contiguously.
     lists = np.stack([np.argsort(centroids[:, k]).astype(np.int32) for k in range(3)])
-    flat_lists = lists.reshape(-1)  # view: flat_lists[k * F + i] is lists[k, i]
+    order = np.empty(n_tris, np.int32)
     goes_right = np.zeros(n_tris, dtype=bool)  # scratch, only read where just written
-    cent32 = [np.ascontiguousarray(centroids[:, k]) for k in range(3)]
-    # With SAH: the boxes in each list's order, (3, 6, F), moved along with the lists. Partition
-    # moves stay inside a node's range (cache-friendly at depth), and reading a node's boxes is
-    # then a contiguous slice instead of a random gather by triangle id.
+    cent = [np.ascontiguousarray(centroids[:, k]) for k in range(3)]
+    # With SAH: the boxes in each list's order, (3, 6, F), moved along with the lists, so a
+    # node's boxes are a contiguous slice instead of a random gather by triangle id.
     list_boxes = None if boxes is None else np.stack([boxes[:, lists[k]] for k in range(3)])
+
+    def drop(keep_nodes, s, c, off):
+        """Write the triangles of nodes not in ``keep_nodes`` to `order`; keep the others."""
+        nonlocal lists, list_boxes
+        keep = np.repeat(keep_nodes, c)
+        gone = ~keep
+        gpos = np.repeat((s - off).astype(np.int32), c)[gone]
+        gpos += np.flatnonzero(gone).astype(np.int32)
+        order[gpos] = lists[0][gone]
+        lists = lists[:, keep]
+        if list_boxes is not None:
+            list_boxes = list_boxes[:, :, keep]
 
     levels: list[_Level] = []
     start = np.zeros(1, np.int64)
     count = np.array([n_tris], np.int64)
     first_id = 0
     while start.size:
+        off = np.cumsum(count) - count  # where each node starts inside `lists`
         split = count > (1 if boxes is not None else max_leaf)
+        if not split.all():
+            drop(split, start, count, off)
         s, c = start[split], count[split]
         n_split = s.size
         if n_split == 0:
             levels.append(_Level(first_id, start, count, np.full(start.size, -1, np.int64),
                                  np.full(start.size, -1, np.int64)))
             break
-        last = s + c - 1
-        mid = s + c // 2  # object median: the left child gets floor(c / 2) triangles
-
-        # Positions of all triangles of the splitting nodes, as one flat array.
-        # int32 throughout: these arrays hold one entry per triangle and dominate the build time.
-        seg = np.repeat(np.arange(n_split, dtype=np.int32), c)
-        seg_offset = np.cumsum(c) - c  # where each node starts inside `pos`
-        pos = np.arange(seg.size, dtype=np.int32) + np.repeat((s - seg_offset).astype(np.int32), c)
-
-        list_ids = None
+        seg_offset = np.cumsum(c) - c  # where each splitting node starts inside `lists`
         if boxes is None:
             # Each list is sorted inside the node, so centroid bounds are its first/last entries.
-            extent = np.stack([cent32[k][lists[k, last]] - cent32[k][lists[k, s]] for k in range(3)], axis=1)
+            first, last = seg_offset, seg_offset + c - 1
+            extent = np.stack([cent[k][lists[k, last]] - cent[k][lists[k, first]] for k in range(3)], axis=1)
             node_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
         else:
-            full = pos.size == n_tris  # every triangle still splits: pos is 0 .. F-1
-            list_ids = [lists[k] if full else lists[k][pos] for k in range(3)]
-            node_boxes = [list_boxes[k] if full else list_boxes[k][:, pos] for k in range(3)]
-            node_axis, keep_leaf = _sah_choice(node_boxes, seg_offset, c, max_leaf)
+            node_axis, keep_leaf = _sah_choice(list_boxes, seg_offset, c, max_leaf)
             if keep_leaf.any():
                 # Nodes SAH keeps as leaves drop out of this level's split.
                 idx = np.flatnonzero(split)
                 split[idx[keep_leaf]] = False
                 go = ~keep_leaf
-                s, c, last, mid, node_axis = s[go], c[go], last[go], mid[go], node_axis[go]
+                drop(go, s, c, seg_offset)
+                s, c, node_axis = s[go], c[go], node_axis[go]
                 n_split = s.size
-                seg_keep = np.repeat(go, count[idx])
-                seg_offset = np.cumsum(c) - c
-                pos = pos[seg_keep]
-                list_ids = [ids[seg_keep] for ids in list_ids]
-                node_boxes = [b[:, seg_keep] for b in node_boxes]
-                seg = np.repeat(np.arange(n_split, dtype=np.int32), c)
+        mid = s + c // 2  # object median: the left child gets floor(c / 2) triangles
         next_id = first_id + start.size
         left = np.full(start.size, -1, np.int64)
         left[split] = next_id + 2 * np.arange(n_split)
@@ -227,33 +232,45 @@ def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
         if n_split == 0:
             break
 
-        seg_start, seg_mid = s.astype(np.int32)[seg], mid.astype(np.int32)[seg]
+        # Child sizes, left then right per node; `right_half` marks list positions in a right child.
+        child_count = np.stack([c // 2, c - c // 2], axis=1).ravel()
+        right_half = np.repeat(np.tile(np.array([False, True]), n_split), child_count)
         # Side of every triangle: the upper half of its node's list on the node's split axis.
-        # (Flat indices: 1-D fancy indexing is much faster than lists[axis, pos].)
-        goes_right[flat_lists[node_axis[seg] * np.int64(n_tris) + pos]] = pos >= seg_mid
+        k0 = int(node_axis[0])
+        if (node_axis == k0).all():
+            on_axis = lists[k0]
+        else:
+            pos_axis = np.repeat(node_axis.astype(np.int8), c)
+            on_axis = np.where(pos_axis == 0, lists[0], np.where(pos_axis == 1, lists[1], lists[2]))
+        goes_right[on_axis] = right_half
 
         # Stable partition of every list inside every node: left triangles keep their order
-        # from the node start, right ones from the median. The split axis's own list is already
-        # partitioned (its lower half is the left child), so only the other two move.
-        pos_in_node = pos - seg_start
+        # from the node start, right ones from the median. A list on its node's own split axis
+        # is already partitioned, so the list all nodes split on does not move.
+        # The sides read back are random within a node: select through flatnonzero (branch-free)
+        # rather than a boolean mask, 5x faster; the halves' masks are runs, cheap to assign.
+        left_half = ~right_half
         for k in range(3):
             if (node_axis == k).all():
                 continue
-            ids = lists[k][pos] if list_ids is None else list_ids[k]
-            is_left = ~goes_right[ids]
-            n_left_incl = np.cumsum(is_left, dtype=np.int32)
-            before_node = np.concatenate((np.zeros(1, np.int32), n_left_incl))[seg_offset]
-            left_rank = n_left_incl - is_left - before_node[seg]
-            new_pos = np.where(is_left, seg_start + left_rank, seg_mid + (pos_in_node - left_rank))
-            lists[k][new_pos] = ids
+            ids = lists[k]
+            r = goes_right[ids]
+            to_left, to_right = np.flatnonzero(~r), np.flatnonzero(r)
+            new = np.empty_like(ids)
+            new[left_half] = ids[to_left]
+            new[right_half] = ids[to_right]
+            lists[k] = new
             if list_boxes is not None:
-                list_boxes[k][:, new_pos] = node_boxes[k]
+                b = list_boxes[k]
+                nb = np.empty_like(b)
+                nb[:, left_half] = np.take(b, to_left, axis=1)
+                nb[:, right_half] = np.take(b, to_right, axis=1)
+                list_boxes[k] = nb
 
         start = np.stack([s, mid], axis=1).ravel()
-        count = np.stack([c // 2, c - c // 2], axis=1).ravel()
+        count = child_count
         first_id = next_id
-    # Leaves never move once made, so every list now holds the same leaf-ordered permutation.
-    return levels, lists[0].astype(np.int64)
+    return levels, order.astype(np.int64)
 
 
 def _half_areas(m: np.ndarray) -> np.ndarray:
@@ -309,14 +326,18 @@ def _flatten(levels: list[_Level], order: np.ndarray, tris: np.ndarray, n_tris: 
     # Leaf boxes: leaves partition [0, F) of the final order, so one reduceat does them all.
     leaf_ids = np.flatnonzero(leaf)
     leaf_ids = leaf_ids[np.argsort(start[leaf_ids])]
-    tri_lo = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2])[order]
-    tri_hi = np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2])[order]
+    # One axis at a time: gathering and reducing 1-D columns is several times faster than rows
+    # of an (F, 3) array, with the same values.
+    leaf_start = start[leaf_ids]
+    leaf_lo = np.empty((leaf_ids.size, 3))
+    leaf_hi = np.empty((leaf_ids.size, 3))
+    for k in range(3):
+        corner = [tris[:, j, k] for j in range(3)]
+        leaf_lo[:, k] = np.minimum.reduceat(np.minimum(np.minimum(*corner[:2]), corner[2])[order], leaf_start)
+        leaf_hi[:, k] = np.maximum.reduceat(np.maximum(np.maximum(*corner[:2]), corner[2])[order], leaf_start)
     lo = np.empty((n_nodes, 3))
     hi = np.empty((n_nodes, 3))
-    lo[leaf_ids], hi[leaf_ids] = _round_out(
-        np.minimum.reduceat(tri_lo, start[leaf_ids], axis=0),
-        np.maximum.reduceat(tri_hi, start[leaf_ids], axis=0),
-    )
+    lo[leaf_ids], hi[leaf_ids] = _round_out(leaf_lo, leaf_hi)
 
     # Interior boxes and subtree sizes bottom-up; children always live on the next level.
     subtree = np.ones(n_nodes, np.int64)
