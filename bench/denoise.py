@@ -21,7 +21,6 @@ further calls, wall seconds on this machine's CPU (OIDN's CPU device, all cores)
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import tempfile

@@ -79,6 +79,11 @@ def metadata(p: Prepared, result: RenderResult) -> dict:
     }
 
 
+def header_keys(meta: dict) -> dict:
+    """Metadata as EXR header keys: ``mcpt:``-prefixed, nested dicts as their repr."""
+    return {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}
+
+
 def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolution=None,
                  gl_backend=None, features_mode="scene", clamp=None, exposure=0.0, progress=None,
                  sampler=None, aovs=(), denoise=False):
@@ -99,7 +104,7 @@ def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolu
     result = p.renderer.render(rs.spp, rs.seed, progress=progress)
     meta = metadata(p, result)
     p.renderer.release()
-    exr_meta = {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in meta.items()}
+    exr_meta = header_keys(meta)
     image, layers, extra = finish(result, aovs, denoise)
     exr_meta.update(extra)
     for output in outputs:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mcpt.gpu.features import dims_for
+from mcpt.shading.sampler import dims_for
 from mcpt.gpu.pack import pack
 from mcpt.scene.shipped import shipped
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mcpt.gpu.features import LLVMPIPE_LOOP_LIMIT, dims_for
+from mcpt.gpu.features import LLVMPIPE_LOOP_LIMIT
+from mcpt.shading.sampler import dims_for
 from mcpt.scene.shipped import shipped
 
 from .core import case, compare_images, Env, Outcome, render

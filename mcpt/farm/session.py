@@ -12,7 +12,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..api import metadata, prepare
+from ..api import header_keys, metadata, prepare
 from ..errors import McptError
 from ..output.image import write_image
 from ..output.layers import computed as computed_aovs
@@ -125,8 +125,7 @@ def _duration(seconds: float) -> str:
 def header(meta: dict, record: dict, spp_requested: int, first_pass: int = 0) -> dict:
     """EXR header keys: the render's metadata plus the record ``mcpt merge`` and resume compare.
     ``mcpt:spp`` is the passes the image holds, ``mcpt:first_pass`` the first of them."""
-    out = {**meta, **record, "spp_requested": spp_requested, "first_pass": first_pass}
-    return {f"mcpt:{k}": (v if not isinstance(v, dict) else repr(v)) for k, v in out.items()}
+    return header_keys({**meta, **record, "spp_requested": spp_requested, "first_pass": first_pass})
 
 
 def run(scene_file, opts: Options, signals: StopSignals) -> Outcome:

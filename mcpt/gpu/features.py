@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 
 from ..shapes.geometry import shared_vertices
-from ..shading.sampler import DIMS_CAMERA, DIMS_PER_BOUNCE, dims_for, layout_defines  # noqa: F401
+from ..shading.sampler import dims_for, layout_defines
 
 # Russian roulette starts after this many scattering events (Mitsuba's rr_depth is 5 path
 # segments = 4 scattering events; we start a little earlier, it is unbiased either way).
