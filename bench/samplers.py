@@ -1,8 +1,9 @@
 """Sobol' against independent numbers, measured side by side (issue #14 part 3).
 
 ``python -m bench.samplers [--rounds N] [--spp 64] [--resolution 256] [--baseline DIR]``:
-renders scenes/cornell-box.yaml (8 bounces) with both samplers, with sobol taking 1 or 8 samples
-per draw instead of 4 (``sobol-1spd``, ``sobol-8spd``: path regeneration) and without path
+renders scenes/cornell-box.yaml (8 bounces) with both samplers, with sobol taking 1 or 4 samples
+per draw instead of features.samples_per_draw (64 at 256x256; ``sobol-1spd``, ``sobol-4spd``: path
+regeneration, 4 was the default before) and without path
 continuation (``sobol-nocont``; the same program as ``sobol`` on this scene, whose paths cannot
 need continuing, see features.needs_continuation), alternating (A, B, C, ...) in one process
 (``--variants`` picks some), and prints per
@@ -47,7 +48,7 @@ def main(argv=None) -> dict:
     variants = {"sobol": ({"sampler": "sobol"}, {}),
                 "independent": ({"sampler": "independent"}, {}),
                 "sobol-1spd": ({"sampler": "sobol"}, {"samples_per_draw": 1}),
-                "sobol-8spd": ({"sampler": "sobol"}, {"samples_per_draw": 8}),
+                "sobol-4spd": ({"sampler": "sobol"}, {"samples_per_draw": 4}),
                 "sobol-nocont": ({"sampler": "sobol", "feature_flags": {"continuation": False}}, {})}
     if a.variants:  # e.g. --variants sobol,independent,sobol-1spd
         variants = {k: v for k, v in variants.items() if k in a.variants.split(",")}

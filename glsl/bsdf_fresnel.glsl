@@ -43,6 +43,9 @@ vec3 fresnel_conductor(float cos_i, vec3 eta, vec3 k) {
     precise vec3 rs = (term1 - term2) / (term1 + term2);
     precise vec3 term3 = a2pb2 * c2 + s4, term4 = term2 * s2;
     precise vec3 rp = rs * (term3 - term4) / (term3 + term4);
-    return 0.5 * (rs + rp);
+    // GLSL division need not be correctly rounded (2.5 ulp allowed; NVIDIA's is not exact): at
+    // grazing cosines, where rs = rp = 1, an H100 returned 1 + 1 ulp. A reflectance above 1 would
+    // add energy: clamped (the error stays at rounding; inputs here are finite).
+    return clamp(0.5 * (rs + rp), 0.0, 1.0);
 }
 #endif

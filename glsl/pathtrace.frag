@@ -206,7 +206,9 @@ vec3 sample_value(vec3 L) {
 // Path regeneration: a draw takes u_samples samples per pixel (sample indices u_sample_index +
 // j, sobol only; 1 for independent numbers), in ONE loop of bounces: a lane whose path has ended
 // starts its next camera path in the same iteration. llvmpipe runs 8 lanes until the last one is
-// done, so a loop per sample would leave a lane idle while its neighbours finish longer paths.
+// done, so a loop per sample would leave a lane idle while its neighbours finish longer paths; the
+// more samples a draw holds (mcpt/gpu/features.py samples_per_draw: up to 64, by image size), the
+// less often a group waits for its slowest lane.
 //
 // Where the driver limits loop iterations (MCPT_CONTINUE, llvmpipe), a draw follows a pixel's
 // paths only while it has iterations to spare; then the path (and j) goes to images and the

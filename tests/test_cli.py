@@ -447,7 +447,7 @@ def test_a_render_projected_past_an_hour_says_so_first(folder, monkeypatch):
     from mcpt.farm import session
 
     monkeypatch.setattr(session, "LONG_RENDER_SECONDS", 0.0)
-    r = invoke("scene.yaml", "--spp", "9", "-o", "out.exr")
+    r = invoke("scene.yaml", "--spp", "130", "-o", "out.exr")  # more than the first draw's 64
     assert r.exit_code == 0
     warn = [ln for ln in r.stderr.splitlines() if "will take about" in ln]
     assert len(warn) == 1 and "--time SECONDS" in warn[0]

@@ -396,3 +396,19 @@ def test_disjoint_pass_ranges_of_one_seed_merge_into_the_whole_render(folder):
     assert r.exit_code == 2 and "overlap" in r.stderr
     r = invoke("scene.yaml", "--spp", "100", "--first-pass", "30", "-o", "c.exr")
     assert r.exit_code == 2 and "multiple of 64" in r.stderr
+
+
+def test_a_checkpoint_off_the_draw_grid_is_rewound_to_its_last_whole_chunk():
+    """A render that ended off the draw grid (100 passes, 64 a draw: its last draw held 64..99)
+    is carried on from pass 64 without its partial; one that stopped on the grid keeps it."""
+    from mcpt.farm.accumulate import Accumulator
+
+    one = np.ones((1, 1, 1, 4))
+    acc = Accumulator.empty(1, 1, 1)
+    acc.add(64, 64 * one)
+    acc.add(100, 36 * one)
+    kept = Accumulator(acc.complete.copy(), acc.done, acc.partial.copy(), acc.chunk)
+    kept.rewind_to_draw_grid(4)  # 100 is a multiple of 4: carried on from the partial
+    assert kept.done == 100 and kept.partial is not None
+    acc.rewind_to_draw_grid(64)
+    assert acc.done == 64 and acc.partial is None and acc.totals()[0, 0, 0, 0] == 64

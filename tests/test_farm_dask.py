@@ -34,8 +34,9 @@ def client():
     cluster.close()
 
 
-def render(folder, out, spp, client=None, progress=None, seed=7):
-    opts = Options([str(folder / out)], spp=spp, seed=seed, client=client, progress=progress)
+def render(folder, out, spp, client=None, progress=None, seed=7, sampler=None):
+    opts = Options([str(folder / out)], spp=spp, seed=seed, client=client, progress=progress,
+                   sampler=sampler)
     outcome = run(folder / "scene.yaml", opts, StopSignals())
     assert outcome.result.spp == spp
     return outcome.result.image
@@ -70,12 +71,15 @@ def test_a_killed_worker_costs_time_not_pixels(folder, client):
     assert same_bits(one, farm)
 
 
-def test_farm_resumes_a_one_process_checkpoint_bit_for_bit(folder, client):
-    """A checkpoint that ended inside a chunk (100 passes), resumed on the farm to 200: the first
-    task carries the unfinished chunk; the image equals one uninterrupted 200-pass render."""
-    opts = Options([str(folder / "c.exr")], spp=100, checkpoint=1e6)
+@pytest.mark.parametrize("sampler, resumed", [("sobol", 64), ("independent", 100)])
+def test_farm_resumes_a_one_process_checkpoint_bit_for_bit(folder, client, sampler, resumed):
+    """A checkpoint that ended inside a chunk (100 passes), resumed on the farm to 200; the image
+    equals one uninterrupted 200-pass render. sobol: its last draw held passes 64..99, off the
+    draw grid (64 a draw here), so the farm draws 64..127 again. independent (one pass a draw):
+    the first task carries the unfinished chunk."""
+    opts = Options([str(folder / "c.exr")], spp=100, checkpoint=1e6, sampler=sampler)
     assert run(folder / "scene.yaml", opts, StopSignals()).checkpoint is not None
-    opts = Options([str(folder / "c.exr")], spp=200, resume=True, client=client)
+    opts = Options([str(folder / "c.exr")], spp=200, resume=True, client=client, sampler=sampler)
     out = run(folder / "scene.yaml", opts, StopSignals())
-    assert out.resumed_from == 100 and out.result.spp == 200
-    assert same_bits(out.result.image, render(folder, "ref.exr", 200))
+    assert out.resumed_from == resumed and out.result.spp == 200
+    assert same_bits(out.result.image, render(folder, "ref.exr", 200, sampler=sampler))

@@ -87,9 +87,11 @@ def test_every_shipped_scene_compiles_only_what_it_uses(scene_file):
 def test_continuation_is_compiled_only_where_a_path_can_outrun_a_draw():
     from mcpt.gpu.features import LLVMPIPE_LOOP_LIMIT, derive, needs_continuation
 
-    # The Cornell box (36 triangles, 8 bounces) cannot reach a quarter of llvmpipe's limit.
-    assert not needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 36)
-    assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 1000, 36)
+    # The Cornell box (36 triangles written out, 8 bounces) cannot reach a quarter of llvmpipe's
+    # limit in a draw of 64 samples; looping over the same triangles it could.
+    assert not needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 36, traced=False, n_lights=2)
+    assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 36, traced=True, n_lights=2)
+    assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 1000, 36, traced=False)
     assert needs_continuation(LLVMPIPE_LOOP_LIMIT, 8, 100_000)
     assert not needs_continuation(0, 100_000, 100_000)  # no limit (GPUs): never
     kw = dict(n_emissive=2, material_types={"diffuse"}, loop_limit=LLVMPIPE_LOOP_LIMIT)
@@ -107,3 +109,17 @@ def test_small_scenes_compile_their_triangle_count_in():
     # A BVH scene never reads the count; forcing the BVH on a small scene turns it off.
     assert derive(n_triangles=36, bvh=True, **kw).defines()["MCPT_TRI_CONST"] == 0
     assert derive(n_triangles=36, **kw).key != derive(n_triangles=37, **kw).key
+
+
+def test_samples_per_draw_follow_the_image_size():
+    from mcpt.gpu.features import (MAX_SAMPLES_PER_DRAW, MIN_SAMPLES_PER_DRAW, PATHS_PER_DRAW,
+                                   samples_per_draw)
+
+    assert samples_per_draw(128, 128) == samples_per_draw(256, 256) == MAX_SAMPLES_PER_DRAW == 64
+    assert samples_per_draw(512, 512) == 32
+    assert samples_per_draw(1920, 1080) == MIN_SAMPLES_PER_DRAW  # never fewer than today's 4
+    for w, h in [(1, 1), (64, 64), (300, 200), (800, 600), (1024, 1024), (4096, 4096)]:
+        n = samples_per_draw(w, h)
+        assert n & (n - 1) == 0 and MIN_SAMPLES_PER_DRAW <= n <= MAX_SAMPLES_PER_DRAW
+        assert w * h * n <= PATHS_PER_DRAW or n == MIN_SAMPLES_PER_DRAW
+        assert n == MAX_SAMPLES_PER_DRAW or w * h * 2 * n > PATHS_PER_DRAW  # the largest that fits

@@ -145,9 +145,11 @@ def test_samples_per_draw_do_not_change_the_image():
         one = p.renderer.render(8, seed=3, samples_per_draw=1)
         four = p.renderer.render(8, seed=3, samples_per_draw=4)
         three = p.renderer.render(8, seed=3, samples_per_draw=3)  # draws of 3, 3 and 2
+        default = p.renderer.render(8, seed=3)  # 32x32: up to 64 a draw, here all 8 in one
+        assert p.renderer.samples_per_draw == 64
     finally:
         p.renderer.release()
-    for other in (four, three):
+    for other in (four, three, default):
         assert other.dropped_samples == one.dropped_samples == 0
         np.testing.assert_allclose(other.image, one.image, rtol=1e-5, atol=1e-6)
         np.testing.assert_allclose(other.variance, one.variance, rtol=1e-3, atol=1e-5)

@@ -43,6 +43,16 @@ class Accumulator:
         """Passes in ``complete`` (a multiple of ``chunk``)."""
         return self.done - (self.done % self.chunk)
 
+    def rewind_to_draw_grid(self, samples_per_draw: int) -> None:
+        """Before carrying on from a checkpoint whose last draw ended off the draw grid (a finished
+        render of 100 spp drew passes 64..99 in one draw, which a longer render draws as 64..127):
+        forget the unfinished chunk and draw it again, so the longer render makes the draws, and
+        the sums, of an uninterrupted one (mcpt/gpu/render.py). Costs fewer than ``chunk`` passes.
+        A stop on the grid (a time budget or a signal stops after a draw) keeps its ``partial``."""
+        if self.partial is not None and self.done % samples_per_draw:
+            self.partial = None
+            self.done = self.whole
+
     def add(self, done: int, sums: np.ndarray) -> None:
         """One read-back of ``Renderer.passes`` covering the passes up to ``done``."""
         if done <= self.done:

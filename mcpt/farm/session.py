@@ -171,6 +171,8 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
         if acc.done > spp:
             raise ResumeError(f"{state_file}: cannot resume: the checkpoint has {acc.done} passes, "
                               f"more than the {spp} asked for")
+        if acc.done < spp:
+            acc.rewind_to_draw_grid(r.samples_per_draw)
     resumed_from = acc.done
     control = Control(opts, signals, spp)
     timing = {"random": 0.0}

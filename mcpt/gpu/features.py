@@ -48,25 +48,47 @@ LLVMPIPE_LOOP_LIMIT = 65535
 
 
 # Samples per pixel one draw takes with the sobol sampler (path regeneration, glsl/pathtrace.frag):
-# lanes whose path ended start the next one instead of idling. 4 measured 1.3x the paths/s of 1 on
-# the Cornell box (bench/samplers.py); 8 was no faster. A draw never takes more than the maximum,
-# which the continuation decision below assumes.
-SAMPLES_PER_DRAW = 4
-MAX_SAMPLES_PER_DRAW = 8
+# lanes whose path ended start the next one instead of idling, and an 8-lane group waits only once
+# per draw for its slowest lane, so the more samples a draw holds the less its lanes idle. Measured
+# alternating (LP 2 threads, 64 spp, seconds relative to 4 a draw): Cornell box 128x128 16 -> 0.88,
+# 32 -> 0.85; 256x256 64 -> 0.82; 512x512 16 -> 0.88, 64 -> 0.83; 100k sphere 128x128 64 -> 0.89
+# (the gain is per pixel, not a per-draw overhead: it holds at every size). The cap is the draw's
+# length: a draw is where --time, signals and progress can step in, so it holds at most
+# PATHS_PER_DRAW paths (a few seconds on llvmpipe) unless that would mean fewer than
+# MIN_SAMPLES_PER_DRAW samples; MAX_SAMPLES_PER_DRAW is the read-back chunk (render.py), which a
+# draw never spans. needs_continuation below assumes no draw takes more than the maximum.
+MIN_SAMPLES_PER_DRAW = 4
+MAX_SAMPLES_PER_DRAW = 64
+PATHS_PER_DRAW = 1 << 23
 
 
-def max_loop_iterations(bounces: int, n_triangles: int) -> int:
-    """An upper bound on the loop iterations of one path: per ray at most every node and every
-    triangle once (a binary tree has < 2 nodes per triangle), a closest-hit and a shadow ray per
-    vertex, plus the bounce loop itself."""
-    return (bounces + 1) * (2 * 3 * max(n_triangles, 1) + 1)
+def samples_per_draw(width: int, height: int) -> int:
+    """Samples per pixel per draw for a ``width`` x ``height`` image (sobol; a power of two)."""
+    n = MAX_SAMPLES_PER_DRAW
+    while n > MIN_SAMPLES_PER_DRAW and width * height * n > PATHS_PER_DRAW:
+        n //= 2
+    return n
 
 
-def needs_continuation(loop_limit: int, bounces: int, n_triangles: int) -> bool:
+def max_loop_iterations(bounces: int, n_triangles: int, *, traced: bool = True,
+                        n_lights: int = 1) -> int:
+    """An upper bound on the loop iterations of one path: per ray (a closest-hit and a shadow ray
+    per vertex) every node and triangle once (a binary tree has < 2 nodes per triangle) when the
+    triangles are reached by a loop (BVH or brute force), none when their tests are written out
+    (``traced`` False: MCPT_TRI_CONST without a BVH); per vertex the light CDF's binary search
+    (glsl/lights.glsl) and one iteration of the bounce loop."""
+    per_ray = 3 * max(n_triangles, 1) if traced else 0
+    search = max(n_lights - 1, 0).bit_length() + 1
+    return (bounces + 1) * (2 * per_ray + search + 1)
+
+
+def needs_continuation(loop_limit: int, bounces: int, n_triangles: int, *, traced: bool = True,
+                       n_lights: int = 1) -> bool:
     """Whether a path may outrun one draw's share of the loop limit (glsl/path_state.glsl). When
-    it cannot (the Cornell box: 36 triangles, 8 bounces, < 2 000 iterations a path), the continuation
-    code and its per-draw read-back are left out."""
-    worst = MAX_SAMPLES_PER_DRAW * max_loop_iterations(bounces, n_triangles)  # one draw's paths
+    it cannot (the Cornell box: 36 triangles written out, 8 bounces, < 30 iterations a path), the
+    continuation code and its per-draw read-back are left out."""
+    worst = MAX_SAMPLES_PER_DRAW * max_loop_iterations(bounces, n_triangles, traced=traced,
+                                                       n_lights=n_lights)  # one draw's paths
     return loop_limit > 0 and worst > loop_limit // 4
 
 
@@ -227,8 +249,9 @@ class Features:
         return "\n".join(lines)
 
     def everything(self) -> "Features":
-        """The uber-shader: every optional code path compiled in (bounces stay as given)."""
-        return replace(self, lights=True, single_light=False, sampling="mis", russian_roulette=True,
+        """The uber-shader: every optional code path compiled in (bounces stay as given), path
+        continuation included where the driver limits loops (a BVH loop may now run)."""
+        return replace(self, continuation=True, lights=True, single_light=False, sampling="mis", russian_roulette=True,
                        bvh=True, diffuse=True, conductor=True, microfacet=True, dielectric=True,
                        absorption=True, plastic=True, textures=True, smooth_normals=True,
                        fresnel_complex=True, one_sided=True)
@@ -249,6 +272,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
     conductor has ``fresnel: conductor``; ``one_sided``: some material has ``two_sided: false``.
     """
     use_bvh = (n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh
+    tri_const = n_triangles if not use_bvh and 0 < n_triangles <= TRI_CONST_MAX else 0
     return Features(
         bounces=bounces,
         lights=n_emissive > 0,
@@ -256,7 +280,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         sampling=sampling,
         russian_roulette=russian_roulette,
         bvh=use_bvh,
-        tri_const=n_triangles if not use_bvh and 0 < n_triangles <= TRI_CONST_MAX else 0,
+        tri_const=tri_const,
         diffuse="diffuse" in material_types,
         conductor="conductor" in material_types,
         microfacet="conductor" in material_types and rough,
@@ -274,7 +298,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         counters=counters,
         bvh_dense=bvh_dense,
         sampler=sampler,
-        continuation=continuation and needs_continuation(loop_limit, bounces, n_triangles),
+        continuation=continuation and needs_continuation(loop_limit, bounces, n_triangles,
+                                                          traced=not tri_const, n_lights=n_emissive),
     )
 
 

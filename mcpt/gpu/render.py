@@ -36,7 +36,7 @@ from ..shading.sobol import seed32
 from . import aov as aov_mod
 from . import shader
 from .context import GLContext
-from .features import SAMPLES_PER_DRAW, Features
+from .features import MAX_SAMPLES_PER_DRAW, Features, samples_per_draw
 from .pack import Packed
 from .path_state import PathState
 from .tbo import GL_R32F, create_tbo
@@ -164,8 +164,9 @@ class Renderer:
             self.tiles = [(0, 0, self.width, self.height)]
             self._numbers = None
             self.random = []
-        # Samples per pixel per draw (path regeneration); 1 where numbers are uploaded per pass.
-        self.samples_per_draw = 1 if features.uploads_random else SAMPLES_PER_DRAW
+        # Samples per pixel per draw (path regeneration, features.samples_per_draw: up to 64 by
+        # the image's size); 1 where numbers are uploaded per pass.
+        self.samples_per_draw = 1 if features.uploads_random else samples_per_draw(self.width, self.height)
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
                         for _ in range(n_targets)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
@@ -193,11 +194,12 @@ class Renderer:
     def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64,
                samples_per_draw: int | None = None) -> RenderResult:
         """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``.
-        ``samples_per_draw`` overrides the path-regeneration width for this render (sobol)."""
+        ``samples_per_draw`` overrides the path-regeneration width for this render (sobol; at most
+        features.MAX_SAMPLES_PER_DRAW, which the loop-limit bound assumes)."""
         if spp < 1:
             raise RenderError(f"spp must be >= 1, got {spp}")
         if samples_per_draw is not None and not self.features.uploads_random:
-            keep, self.samples_per_draw = self.samples_per_draw, max(1, int(samples_per_draw))
+            keep, self.samples_per_draw = self.samples_per_draw, min(max(1, int(samples_per_draw)), MAX_SAMPLES_PER_DRAW)
             try:
                 return self.render(spp, seed, progress=progress, chunk=chunk)
             finally:
