@@ -47,19 +47,14 @@ uint g_iter = 0u, g_fetch = 0u, g_node = 0u, g_tri = 0u;
 
 // Slab test. Zero direction components are replaced by a tiny value upstream (safe_inv) so no
 // 0 * inf = NaN appears; the far distance is widened by 2 gamma(3) (Ize 2013, "Robust BVH Ray
-// Traversal") so rounding never misses a box the ray really enters.
-// par = step(1e29, |inv|) * 3e38, per ray (see the comment below).
-bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, vec3 par, float tmax, out float tnear) {
+// Traversal") so rounding never misses a box the ray really enters. A ray running exactly along
+// a box face (flat boxes of axis-aligned walls) is inside the slab because the host grew every
+// box outward (mcpt/shapes/bvh.py grown_boxes; issue #6, case watertight-flat-grid-axis-rays).
+bool box_hit(vec3 bmin, vec3 bmax, vec3 o, vec3 inv, float tmax, out float tnear) {
     vec3 t0 = (bmin - o) * inv;
     vec3 t1 = (bmax - o) * inv;
     vec3 tsm = min(t0, t1);
     vec3 tbg = max(t0, t1);
-    // A ray parallel to a slab (|inv| huge: safe_inv replaced a zero component) whose origin lies
-    // exactly on one of the slab's planes got 0 * inv = 0 there, i.e. left the box at t = 0, so a
-    // ray running inside a box face (flat boxes of axis-aligned walls) missed the box (issue #6,
-    // case watertight-flat-grid-axis-rays). Such a ray stays in the slab for every t when its
-    // origin is inside it, bounds included: push the slab's far distance out of reach.
-    tbg += par * step(bmin, o) * step(o, bmax);
     float tn = max(max(tsm.x, tsm.y), max(tsm.z, 0.0));
     float tf = min(min(tbg.x, tbg.y), min(tbg.z, tmax)) * 1.0000004;
     tnear = tn;
@@ -161,7 +156,6 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
     //   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
     // child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
     vec3 inv = safe_inv(r.d);
-    vec3 par = step(1e29, abs(inv)) * 3e38;
     int stack[BVH_STACK];
     int sp = 0;
     int node = 0;
@@ -175,8 +169,8 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
         BVH_COUNT_NODE();
         BVH_COUNT_TRIS(2 * BVH_MAX_LEAF);
         float tl, tr;
-        bool hl = box_hit(uintBitsToFloat(l0.xyz), uintBitsToFloat(l1.xyz), r.o, inv, par, h.t, tl);
-        bool hr = box_hit(uintBitsToFloat(r0.xyz), uintBitsToFloat(r1.xyz), r.o, inv, par, h.t, tr);
+        bool hl = box_hit(uintBitsToFloat(l0.xyz), uintBitsToFloat(l1.xyz), r.o, inv, h.t, tl);
+        bool hr = box_hit(uintBitsToFloat(r0.xyz), uintBitsToFloat(r1.xyz), r.o, inv, h.t, tr);
         if (hl && l1.w != 0u && leaf_hit(r, p, int(l0.w), int(l1.w & 0x7fffffffu), any_hit, h)) {
             found = true;
             if (any_hit) return true;
@@ -202,7 +196,6 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
     }
 #elif MCPT_BVH
     vec3 inv = safe_inv(r.d);
-    vec3 par = step(1e29, abs(inv)) * 3e38;  // slabs the ray runs parallel to (box_hit)
     uint stack[BVH_STACK];
     int sp = 0;
 #if MCPT_TRI_CONST > 0
@@ -238,8 +231,8 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
             // Node record: both children's boxes and references.
             BVH_COUNT_NODE();
             float tl, tr;
-            bool hl = box_hit(uintBitsToFloat(x0.xyz), uintBitsToFloat(x1.xyz), r.o, inv, par, h.t, tl);
-            bool hr = box_hit(uintBitsToFloat(x2.xyz), uintBitsToFloat(x3.xyz), r.o, inv, par, h.t, tr);
+            bool hl = box_hit(uintBitsToFloat(x0.xyz), uintBitsToFloat(x1.xyz), r.o, inv, h.t, tl);
+            bool hr = box_hit(uintBitsToFloat(x2.xyz), uintBitsToFloat(x3.xyz), r.o, inv, h.t, tr);
             bool left_first = tl <= tr;
             uint near = left_first ? x0.w : x2.w;
             uint far = left_first ? x2.w : x0.w;

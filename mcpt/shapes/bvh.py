@@ -19,6 +19,10 @@ Boxes are computed in float64 and rounded outward to float32, so each float32 bo
 the float32 vertices of its triangles, and a parent box contains its children's boxes exactly.
 A traversal still needs a conservative slab test (pad tmax by a few ulps) to never miss a
 hit whose point lies on a box face, e.g. axis-aligned walls whose boxes are flat.
+
+The GPU layouts (:meth:`BVH.gpu_nodes`, :meth:`BVH.dense_nodes`) grow every box outward
+(:func:`grown_boxes`), so a ray running exactly along a box face, with a zero direction
+component (the shader replaces it by 1e-30), starts strictly inside that slab and stays in it.
 """
 
 from __future__ import annotations
@@ -63,6 +67,29 @@ SAH_MAX_TRIANGLES = 1 << 18
 #: glsl/bvh.glsl item references: texel address in the low 28 bits, leaf count above.
 GPU_COUNT_SHIFT = 28
 GPU_ADDRESS_LIMIT = 1 << GPU_COUNT_SHIFT
+
+
+#: Boxes in the GPU layouts are grown outward by this fraction of (|coordinate| + the scene's
+#: extent): >= 4 float32 ulps of the coordinate, and never 0 at a coordinate 0.
+GPU_BOX_GROWTH = 2.0 ** -21
+
+
+def grown_boxes(bmin: np.ndarray, bmax: np.ndarray, extent: float) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) float32 boxes grown outward by ``GPU_BOX_GROWTH * (|c| + extent)`` per coordinate.
+
+    Why: a ray parallel to a slab (direction component 0, replaced by 1e-30 in glsl/bvh.glsl
+    safe_inv) whose origin lies exactly on one of the slab's planes gets 0 * 1e30 = 0 there, so a
+    flat box (an axis-aligned wall's) ended at t = 0 for it and was missed (issue #6, stability
+    case watertight-flat-grid-axis-rays). The shader used to push such slabs out per box and per
+    step (six compares and a multiply-add per box: 4-5 % of paths/s, issue #14); with every box
+    grown here the origin is strictly inside by at least ``GPU_BOX_GROWTH * extent``, which times
+    1e30 is beyond any ray's reach. A few ulps more box costs no measurable traversal work.
+    Empty boxes (+inf / -inf) stay empty."""
+    lo, hi = np.asarray(bmin, np.float64), np.asarray(bmax, np.float64)
+    with np.errstate(invalid="ignore"):
+        glo = np.where(np.isfinite(lo), lo - GPU_BOX_GROWTH * (np.abs(lo) + extent), lo)
+        ghi = np.where(np.isfinite(hi), hi + GPU_BOX_GROWTH * (np.abs(hi) + extent), hi)
+    return glo.astype(np.float32), ghi.astype(np.float32)
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,6 +169,17 @@ class BVH:
         tri_base = 4 * int((~leaf).sum())
         return first, (tri_base + 3 * int(self.leaf_first[1])) | (int(self.leaf_count[1]) << GPU_COUNT_SHIFT)
 
+    def _grown_node_boxes(self) -> np.ndarray:
+        """``self.nodes`` with every box grown outward (:func:`grown_boxes`), as (M, 8) uint32."""
+        out = self.nodes.copy()
+        root_lo, root_hi = self.bounds_min[0].astype(np.float64), self.bounds_max[0].astype(np.float64)
+        finite = np.isfinite(root_lo).all() and np.isfinite(root_hi).all()
+        extent = float(np.max(root_hi - root_lo)) if finite and self.num_triangles else 0.0
+        lo, hi = grown_boxes(self.bounds_min, self.bounds_max, max(extent, 1e-30))
+        out[:, 0:3] = lo.view(np.uint32)
+        out[:, 4:7] = hi.view(np.uint32)
+        return out
+
     def gpu_nodes(self, tris_reordered: np.ndarray, dense: bool = False) -> np.ndarray:
         """The buffer glsl/bvh.glsl traverses: ``(4 I + 3 F + 1, 4)`` uint32 RGBA32UI texels.
 
@@ -173,7 +211,7 @@ class BVH:
         n_tris = self.num_triangles
         if tris.shape != (n_tris, 3, 3):
             raise ValueError(f"tris_reordered must have shape ({n_tris}, 3, 3), got {tris.shape}")
-        nodes, leaf = self.nodes, self.is_leaf
+        nodes, leaf = self._grown_node_boxes(), self.is_leaf
         counts = self.leaf_count
         if counts.max(initial=0) > GPU_MAX_LEAF:
             raise ValueError(f"leaves of up to {counts.max()} triangles; the GPU "
@@ -221,7 +259,7 @@ class BVH:
         ``count | LEAF_FLAG`` and ``a`` the first triangle (in u_tris). A tree that is a single
         leaf becomes one node whose right child is an empty leaf.
         """
-        nodes, leaf = self.nodes, self.is_leaf
+        nodes, leaf = self._grown_node_boxes(), self.is_leaf
         if self.leaf_count.max(initial=0) > GPU_MAX_LEAF:
             raise ValueError(f"leaves of up to {self.leaf_count.max()} triangles; the GPU "
                              f"traversal handles {GPU_MAX_LEAF} (build with max_leaf <= {GPU_MAX_LEAF})")
