@@ -13,16 +13,26 @@ from .group import main, reports_errors
 @click.option("-o", "--output", "outputs", multiple=True, required=True,
               help="Merged image (.exr, or .png for a preview); repeat for several.")
 @click.option("--exposure", type=float, default=0.0, show_default=True, help="PNG only: stops.")
+@click.option("--denoise", is_flag=True,
+              help="Denoise the merged beauty with OIDN (biased; needs the albedo and normal layers "
+                   "in every input and mcpt[denoise]); the raw merge is kept as raw.R/G/B.")
 @reports_errors
-def merge(inputs, outputs, exposure):
-    """Merge EXR renders of the same scene (different seeds), weighted by their spp."""
+def merge(inputs, outputs, exposure, denoise):
+    """Merge EXR renders of the same scene (different seeds), weighted by their spp, AOV layers
+    included."""
     from mcpt.farm.merge import merge as merge_images
     from mcpt.output.image import check_output_path, write_image
 
     for output in outputs:
         check_output_path(output)
-    image, header = merge_images(list(inputs))
+    image, header, layers = merge_images(list(inputs), denoise=denoise)
     for output in outputs:
-        write_image(output, image, header, exposure)
+        write_image(output, image, header, exposure, layers)
+    notes = [f"layers {header['mcpt:aovs']}"] if header.get("mcpt:aovs") else []
+    if "mcpt:merged_beauty" in header:
+        notes.append("the inputs were denoised: their raw beauty was merged"
+                     + ("" if denoise else " (--denoise denoises the merge)"))
+    if denoise:
+        notes.append("denoised (biased)")
     click.echo(f"wrote {', '.join(outputs)}: {len(inputs)} renders, {header['mcpt:spp']} spp "
-               f"(seeds {header['mcpt:seeds']})", err=True)
+               f"(seeds {header['mcpt:seeds']})" + "".join(f"; {n}" for n in notes), err=True)

@@ -309,3 +309,82 @@ def test_farm_renders_the_same_layers(folder):
     assert set(a) == set(b) == {"R", "G", "B", *channel_names(aovs)}
     for k in a:
         np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+
+
+# ---- mcpt merge keeps the layers ----------------------------------------------------------------
+
+def _cli(*args):
+    return CliRunner().invoke(main, list(args))
+
+
+def test_merge_keeps_every_layer_as_the_merged_render_would_have_it(folder):
+    """Albedo and depth merge like the beauty (spp-weighted), the normal too and back to unit
+    length, the variance of each mean as that of the weighted mean: sum w_i^2 var_i."""
+    aovs = "albedo,normal,depth,variance"
+    for seed, spp in ((1, 16), (2, 48)):
+        r = _cli("render", "mirror.yaml", "--aov", aovs, "--seed", str(seed), "--spp", str(spp),
+                 "-o", f"s{seed}.exr", "--quiet")
+        assert r.exit_code == 0, r.output
+    r = _cli("merge", "s1.exr", "s2.exr", "-o", "m.exr")
+    assert r.exit_code == 0, r.output
+    assert "layers albedo,normal,depth,variance" in r.stderr
+    a, b, m = (read_exr_channels(f) for f in ("s1.exr", "s2.exr", "m.exr"))
+    assert set(m) == set(a)
+    assert read_exr("m.exr")[1]["mcpt:aovs"] == aovs
+    for k in ("R", "albedo.G", "depth.Z"):
+        want = ((16 * a[k].astype(np.float64) + 48 * b[k].astype(np.float64)) / 64).astype(np.float32)
+        assert np.array_equal(m[k], want), k
+    assert not np.array_equal(a["albedo.R"], b["albedo.R"])  # the mirror's edges: noisy albedo
+    w1, w2 = 0.25, 0.75
+    var = (w1 * w1 * a["variance.G"].astype(np.float64)
+           + w2 * w2 * b["variance.G"].astype(np.float64)).astype(np.float32)
+    assert np.array_equal(m["variance.G"], var)
+    n = np.stack([m[f"normal.{c}"] for c in "XYZ"], -1)
+    length = np.linalg.norm(n, axis=-1)
+    assert np.allclose(length[length > 0], 1.0, atol=1e-6)
+    mixed = np.stack([16 * a[f"normal.{c}"] + 48 * b[f"normal.{c}"] for c in "XYZ"], -1)
+    cos = (n * mixed).sum(-1) / np.maximum(np.linalg.norm(mixed, axis=-1), 1e-12)
+    assert np.allclose(cos[length > 0], 1.0, atol=1e-5)  # the weighted mean's direction
+
+
+def test_merge_refuses_renders_with_other_layers(folder):
+    assert _cli("render", "wall.yaml", "--aov", "albedo", "--seed", "1", "-o", "a.exr", "--quiet").exit_code == 0
+    assert _cli("render", "wall.yaml", "--aov", "depth", "--seed", "2", "-o", "b.exr", "--quiet").exit_code == 0
+    r = _cli("merge", "a.exr", "b.exr", "-o", "m.exr")
+    assert r.exit_code == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "AOV layers (depth) differ" in lines[0] and "(albedo)" in lines[0], lines
+    assert not (folder / "m.exr").exists()
+
+
+def test_merge_denoise_needs_albedo_and_normal(folder):
+    pytest.importorskip("pyoidn")
+    for seed in (1, 2):
+        assert _cli("render", "wall.yaml", "--aov", "depth", "--seed", str(seed), "-o", f"s{seed}.exr",
+                    "--quiet").exit_code == 0
+    r = _cli("merge", "s1.exr", "s2.exr", "--denoise", "-o", "m.exr")
+    assert r.exit_code == 2
+    assert r.stderr.strip().splitlines() == [
+        "mcpt: error: --denoise needs the albedo and normal layers in every input (render them with "
+        "--aov albedo,normal)"]
+    assert not (folder / "m.exr").exists()
+
+
+def test_merge_of_denoised_renders_merges_their_raw_beauty_and_can_denoise_it(folder):
+    pytest.importorskip("pyoidn")
+    for seed in (1, 2):
+        r = _cli("render", "wall.yaml", "--denoise", "--aov", "albedo,normal", "--seed", str(seed),
+                 "--spp", "8", "-o", f"s{seed}.exr", "--quiet")
+        assert r.exit_code == 0, r.output
+    a, b = read_exr_channels("s1.exr"), read_exr_channels("s2.exr")
+    r = _cli("merge", "s1.exr", "s2.exr", "-o", "raw.exr")
+    assert r.exit_code == 0 and "their raw beauty was merged (--denoise denoises the merge)" in r.stderr
+    m, hdr = read_exr_channels("raw.exr", with_header=True)
+    assert np.array_equal(m["G"], ((a["raw.G"].astype(np.float64) + b["raw.G"].astype(np.float64)) / 2)
+                          .astype(np.float32))
+    assert "mcpt:denoised" not in hdr and "raw.G" not in m  # unbiased: no denoised beauty
+    r = _cli("merge", "s1.exr", "s2.exr", "--denoise", "-o", "d.exr")
+    assert r.exit_code == 0, r.output
+    d, hdr = read_exr_channels("d.exr", with_header=True)
+    assert hdr["mcpt:denoised"].endswith(", biased")
+    assert np.array_equal(d["raw.G"], m["G"]) and not np.array_equal(d["G"], m["G"])

@@ -14,6 +14,14 @@ them as ``mcpt:*`` keys (mcpt/farm/session.py). Two renders with the same seed s
 of one seed overlap are refused: their mean would count the same paths twice. Disjoint ranges of
 one seed (``--first-pass 0..N``, ``N..M``) merge into the image of passes 0..M, up to float32
 rounding of the parts.
+
+AOV layers (``--aov``, mcpt/gpu/aov.py) are merged too; the inputs must have the same ones.
+Albedo and depth are per-sample means, so they merge like the beauty; the normal is merged so and
+scaled back to unit length (a pixel straddling an edge can differ from one render's in its last
+bits: each input's normal was already normalised); variance, the variance of each input's mean,
+merges as that of the weighted mean, ``sum_i spp_i^2 var_i / (sum_i spp_i)^2``. A denoised input
+(``mcpt:denoised``) is biased, so its raw beauty (``raw.R/G/B``) is what is merged; ``denoise``
+runs OIDN again on the merged beauty with the merged albedo and normal.
 """
 
 from __future__ import annotations
@@ -23,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import McptError
-from ..output.image import read_exr
+from ..gpu import aov as aov_mod
+from ..output.image import read_exr_channels
 from .state import mismatch
 
 COMPARED = ("scene_hash", "width", "height", "bounces", "features_mode", "clamp")
@@ -41,24 +50,50 @@ def _record(header: dict, path) -> dict:
     return rec
 
 
-def merge(paths: list[str | Path]) -> tuple[np.ndarray, dict]:
-    """The merged image and its header (``mcpt:*`` keys: spp summed, the seeds listed)."""
+def _beauty(channels: dict, rec: dict) -> np.ndarray:
+    """The unbiased beauty of one input: ``raw.R/G/B`` where it was denoised, else ``R/G/B``."""
+    prefix = "raw." if "denoised" in rec else ""
+    return np.stack([channels[f"{prefix}{c}"] for c in "RGB"], axis=-1)
+
+
+def _layer(channels: dict, name: str, path) -> np.ndarray:
+    letters = aov_mod.AOVS[name][0]
+    try:
+        return np.stack([channels[f"{name}.{c}"] for c in letters], axis=-1)
+    except KeyError:
+        raise MergeError(f"{path}: its header lists the AOV {name!r} but the file lacks its channels") from None
+
+
+def _aovs(rec: dict) -> tuple[str, ...]:
+    return aov_mod.parse(rec.get("aovs", ""))
+
+
+def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, dict, dict]:
+    """The merged image, its header (``mcpt:*`` keys: spp summed, the seeds listed) and its AOV
+    layers (the ``layers`` argument of mcpt.output.image.write_exr)."""
     if len(paths) < 2:
         raise MergeError("merge needs at least two renders")
-    images, records = [], []
+    if denoise:
+        from ..output.denoise import denoise as oidn, version
+
+        denoiser = version()  # DenoiseError (one line) before any work when the extra is missing
+    files, records = [], []
     for path in paths:
         try:
-            image, header = read_exr(path)
+            channels, header = read_exr_channels(path, with_header=True)
         except FileNotFoundError:
             raise MergeError(f"{path}: no such file") from None
         except Exception as exc:  # OpenEXR reports unreadable files with varied exceptions
             raise MergeError(f"{path}: not a readable EXR ({' '.join(str(exc).split())})") from None
-        images.append(image)
+        files.append(channels)
         records.append(_record(header, path))
     first = records[0]
     ranges: dict[str, list] = {}  # seed -> [(first pass, end pass, path)]
     for path, rec in zip(paths, records):
         why = mismatch(first, rec, COMPARED, here=str(paths[0]), there=str(path))
+        if not why and _aovs(rec) != _aovs(first):
+            why = (f"its AOV layers ({','.join(_aovs(rec)) or 'none'}) differ from those of "
+                   f"{paths[0]} ({','.join(_aovs(first)) or 'none'})")
         if why:
             raise MergeError(f"cannot merge {path}: {why}")
         lo = int(rec.get("first_pass", 0))
@@ -70,16 +105,45 @@ def merge(paths: list[str | Path]) -> tuple[np.ndarray, dict]:
                                  "(render other seeds, or disjoint --first-pass ranges)")
         ranges.setdefault(rec["seed"], []).append((lo, hi, path))
     spp = np.array([int(r["spp"]) for r in records], np.float64)
-    acc = np.zeros(images[0].shape, np.float64)
-    for n, image in zip(spp, images):
-        acc += n * image.astype(np.float64)
-    merged = (acc / spp.sum()).astype(np.float32)
+    w = spp / spp.sum()
+
+    def mean(arrays) -> np.ndarray:
+        acc = np.zeros(arrays[0].shape, np.float64)
+        for n, a in zip(spp, arrays):
+            acc += n * a.astype(np.float64)
+        return (acc / spp.sum()).astype(np.float32)
+
+    merged = mean([_beauty(ch, rec) for ch, rec in zip(files, records)])
+    values = {}
+    for name in _aovs(first):
+        parts = [_layer(ch, name, path) for ch, path in zip(files, paths)]
+        if name == "variance":  # of the weighted mean of independent estimates
+            values[name] = sum(wi * wi * p.astype(np.float64) for wi, p in zip(w, parts)).astype(np.float32)
+        elif name == "normal":
+            n = mean(parts).astype(np.float64)
+            length = np.linalg.norm(n, axis=-1, keepdims=True)
+            values[name] = (n * np.divide(1.0, length, out=np.zeros_like(length),
+                                          where=length > 1e-12)).astype(np.float32)
+        else:
+            values[name] = mean(parts)
+    layers = aov_mod.layers(values, _aovs(first))
     header = {f"mcpt:{k}": first[k] for k in COMPARED}
     header.update({"mcpt:spp": str(int(spp.sum())), "mcpt:seed": first["seed"],
                    "mcpt:seeds": " ".join(r["seed"] for r in records),
                    "mcpt:merged_spp": " ".join(str(int(n)) for n in spp),
                    "mcpt:merged_from": " ".join(str(p) for p in paths)})
-    for k in ("scene", "gl_renderer", "mcpt_version", "spp_requested"):
+    for k in ("scene", "gl_renderer", "mcpt_version", "spp_requested", "aovs"):
         if k in first:
             header[f"mcpt:{k}"] = first[k]
-    return merged, header
+    if any("denoised" in r for r in records):
+        header["mcpt:merged_beauty"] = "raw.R/G/B of the denoised inputs (unbiased)"
+    if denoise:
+        missing = [n for n in aov_mod.DENOISE_AOVS if n not in values]
+        if missing:
+            raise MergeError(f"--denoise needs the {' and '.join(missing)} layers in every input "
+                             "(render them with --aov albedo,normal)")
+        raw = merged
+        merged = oidn(raw, values["albedo"], values["normal"])
+        header["mcpt:denoised"] = f"{denoiser}, biased"
+        layers = {"raw": (raw, "RGB"), **layers}
+    return merged, header, layers

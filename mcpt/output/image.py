@@ -116,12 +116,14 @@ def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
         return np.array(f.channels()["RGB"].pixels, np.float32), dict(f.header())
 
 
-def read_exr_channels(path: str | Path) -> dict[str, np.ndarray]:
-    """Every channel of an EXR by its full name (``R``, ``albedo.G``, ``depth.Z``, ...)."""
+def read_exr_channels(path: str | Path, with_header: bool = False):
+    """Every channel of an EXR by its full name (``R``, ``albedo.G``, ``depth.Z``, ...); with
+    ``with_header``, ``(channels, header)``."""
     import OpenEXR
 
     with OpenEXR.File(str(path), separate_channels=True) as f:
-        return {k: np.array(c.pixels, np.float32) for k, c in f.channels().items()}
+        channels = {k: np.array(c.pixels, np.float32) for k, c in f.channels().items()}
+        return (channels, dict(f.header())) if with_header else channels
 
 
 def write_png(path: str | Path, rgb: np.ndarray, exposure: float = 0.0) -> None:
