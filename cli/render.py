@@ -37,7 +37,7 @@ from .options import finite, positive_finite, render_options
                    "albedo and normal AOVs; the EXR keeps the raw beauty as raw.R/G/B.")
 @click.option("--time", "time_budget", type=float, default=None, callback=positive_finite,
               metavar="SECONDS",
-              help="Wall-time budget: stop at the pass boundary before it runs out and write the "
+              help="Wall-time budget: stop at the draw boundary before it runs out and write the "
                    "image of the passes done (its header states them: mcpt:spp).")
 @click.option("--checkpoint", type=float, default=None, callback=positive_finite, metavar="SECONDS",
               help="Every SECONDS write the image and OUTPUT.state.npz (sums, passes, settings), "

@@ -10,7 +10,7 @@ float fresnel_dielectric(float cos_i, float eta, out float cos_t) {
     cos_t = sqrt(1.0 - sin2_t);
     float rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     float rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    return 0.5 * (rs * rs + rp * rp);
+    return min(0.5 * (rs * rs + rp * rp), 1.0);  // inexact GPU division: never above 1 (see below)
 }
 
 // Schlick's approximation, F0 + (1 - F0)(1 - cos)^5 (Schlick 1994).

@@ -317,9 +317,10 @@ def _cli(*args):
     return CliRunner().invoke(main, list(args))
 
 
-def test_merge_keeps_every_layer_as_the_merged_render_would_have_it(folder):
-    """Albedo and depth merge like the beauty (spp-weighted), the normal too and back to unit
-    length, the variance of each mean as that of the weighted mean: sum w_i^2 var_i."""
+def test_merge_keeps_every_layer_spp_weighted(folder):
+    """Albedo and depth merge like the beauty (spp-weighted, as one render of all passes), the
+    normal too and back to unit length (approximate at edge pixels), the variance of each mean as
+    that of the weighted mean: sum w_i^2 var_i."""
     aovs = "albedo,normal,depth,variance"
     for seed, spp in ((1, 16), (2, 48)):
         r = _cli("render", "mirror.yaml", "--aov", aovs, "--seed", str(seed), "--spp", str(spp),

@@ -150,7 +150,9 @@ def wait_for(path: Path, timeout: float = 60.0) -> None:
 
 def test_sigterm_checkpoint_then_resume_is_bit_identical(folder):
     """Issue #11: a checkpointed render killed by SIGTERM and resumed equals the uninterrupted
-    render bit for bit, also when it stopped inside a chunk of read-backs."""
+    render bit for bit, also when it is extended to an spp inside a chunk of read-backs. (At 64
+    samples a draw a stop lands on a read-back; test_resume_with_draws_smaller_than_a_chunk
+    covers stops inside a chunk.)"""
     proc = mcpt("render", "scene.yaml", "--spp", "100000000", "--checkpoint", "0.3",
                 "-o", "r.exr", "--quiet")
     wait_for(folder / "r.exr.state.npz")
@@ -412,3 +414,49 @@ def test_a_checkpoint_off_the_draw_grid_is_rewound_to_its_last_whole_chunk():
     assert kept.done == 100 and kept.partial is not None
     acc.rewind_to_draw_grid(64)
     assert acc.done == 64 and acc.partial is None and acc.totals()[0, 0, 0, 0] == 64
+
+
+@pytest.fixture
+def eight_a_draw(monkeypatch):
+    """Draws of 8 samples at this folder's 12x10 pixels (2^22 paths a draw would give 64)."""
+    from mcpt.gpu import features
+
+    monkeypatch.setattr(features, "PATHS_PER_DRAW", 12 * 10 * 8)
+    assert features.samples_per_draw(12, 10) == 8
+
+
+@pytest.mark.parametrize("first, resumed", [(72, 72), (100, 64)])
+def test_resume_with_draws_smaller_than_a_chunk(folder, eight_a_draw, first, resumed):
+    """8 samples a draw, 64 passes a read-back: a render that ended on the draw grid inside a chunk
+    (72) is carried on from its float32 partial; one that ended off it (100) from pass 64. Both
+    give the bits of one uninterrupted render."""
+    assert invoke("scene.yaml", "--spp", str(first), "--checkpoint", "1000", "-o", "a.exr").exit_code == 0
+    r = invoke("scene.yaml", "--spp", "200", "--resume", "-o", "a.exr", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["resumed_from"] == resumed
+    assert invoke("scene.yaml", "--spp", "200", "-o", "b.exr").exit_code == 0
+    assert same_bits(pixels("a.exr"), pixels("b.exr"))
+
+
+def test_a_checkpoint_drawn_otherwise_is_refused(folder, monkeypatch):
+    """Samples grouped into other draws sum to other float32 bits: refused in one line."""
+    from mcpt.gpu import features
+
+    default = features.PATHS_PER_DRAW
+    monkeypatch.setattr(features, "PATHS_PER_DRAW", 12 * 10 * 8)
+    assert invoke("scene.yaml", "--spp", "72", "--checkpoint", "1000", "-o", "a.exr").exit_code == 0
+    monkeypatch.setattr(features, "PATHS_PER_DRAW", default)
+    r = invoke("scene.yaml", "--spp", "200", "--resume", "-o", "a.exr")
+    assert r.exit_code == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "samples_per_draw is 64 in this render but 8 in the checkpoint" in lines[0], lines
+
+
+def test_the_time_budget_looks_one_draw_ahead():
+    """--time stops before the draw that would pass the budget: the next draw's passes, on the
+    grid of samples per draw and read-back chunks, up to the spp."""
+    from mcpt.farm.session import Control, Options
+    from mcpt.farm.signals import StopSignals
+
+    c = Control(Options(["x.exr"]), StopSignals(), spp=200, samples_per_draw=32, chunk=64)
+    assert [c.next_draw(d) for d in (0, 32, 40, 64, 192, 199)] == [32, 32, 24, 32, 8, 1]

@@ -59,7 +59,8 @@ def job_for(p, opts) -> dict:
             "resolution": [cam.width, cam.height], "gl_backend": opts.gl_backend,
             "features_mode": opts.features_mode, "clamp": opts.clamp, "sampler": p.features.sampler,
             "aovs": list(computed_aovs(opts.aovs, opts.denoise)),
-            "scene_hash": scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles]}
+            "scene_hash": scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles],
+            "samples_per_draw": p.renderer.samples_per_draw}
 
 
 def ranges(start: int, stop: int, chunk: int = CHUNK) -> list[tuple[int, int]]:

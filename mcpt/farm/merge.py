@@ -16,9 +16,11 @@ one seed (``--first-pass 0..N``, ``N..M``) merge into the image of passes 0..M, 
 rounding of the parts.
 
 AOV layers (``--aov``, mcpt/gpu/aov.py) are merged too; the inputs must have the same ones.
-Albedo and depth are per-sample means, so they merge like the beauty; the normal is merged so and
-scaled back to unit length (a pixel straddling an edge can differ from one render's in its last
-bits: each input's normal was already normalised); variance, the variance of each input's mean,
+Albedo and depth are per-sample means, so they merge like the beauty (exactly as one render of
+all the passes); the normal is merged so and scaled back to unit length, which is only
+approximately one render's normal where a pixel straddles an edge (each input's mean normal was
+already normalised, so how much its directions disagreed is lost: degrees at such pixels, exact
+on flat ones); variance, the variance of each input's mean,
 merges as that of the weighted mean, ``sum_i spp_i^2 var_i / (sum_i spp_i)^2``. A denoised input
 (``mcpt:denoised``) is biased, so its raw beauty (``raw.R/G/B``) is what is merged; ``denoise``
 runs OIDN again on the merged beauty with the merged albedo and normal.
@@ -50,10 +52,14 @@ def _record(header: dict, path) -> dict:
     return rec
 
 
-def _beauty(channels: dict, rec: dict) -> np.ndarray:
+def _beauty(channels: dict, rec: dict, path) -> np.ndarray:
     """The unbiased beauty of one input: ``raw.R/G/B`` where it was denoised, else ``R/G/B``."""
     prefix = "raw." if "denoised" in rec else ""
-    return np.stack([channels[f"{prefix}{c}"] for c in "RGB"], axis=-1)
+    try:
+        return np.stack([channels[f"{prefix}{c}"] for c in "RGB"], axis=-1)
+    except KeyError:
+        what = "a denoised render without its raw.R/G/B" if prefix else "no R/G/B channels"
+        raise MergeError(f"{path}: {what}") from None
 
 
 def _layer(channels: dict, name: str, path) -> np.ndarray:
@@ -113,7 +119,7 @@ def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, d
             acc += n * a.astype(np.float64)
         return (acc / spp.sum()).astype(np.float32)
 
-    merged = mean([_beauty(ch, rec) for ch, rec in zip(files, records)])
+    merged = mean([_beauty(ch, rec, path) for ch, rec, path in zip(files, records, paths)])
     values = {}
     for name in _aovs(first):
         parts = [_layer(ch, name, path) for ch, path in zip(files, paths)]

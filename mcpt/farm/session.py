@@ -70,8 +70,10 @@ class Outcome:
 class Control:
     """Asked after every pass: progress, and whether to stop (signal, time) or pause (checkpoint)."""
 
-    def __init__(self, opts: Options, signals: StopSignals, spp: int):
+    def __init__(self, opts: Options, signals: StopSignals, spp: int, samples_per_draw: int = 1,
+                 chunk: int = 64):
         self.opts, self.signals, self.spp = opts, signals, spp
+        self.samples_per_draw, self.chunk = samples_per_draw, chunk
         self.t_run = time.perf_counter()
         self.last_checkpoint = self.t_run
         self.passes_run = 0
@@ -90,8 +92,8 @@ class Control:
         if self.signals.stopped:
             self.stop = "signal"
         elif (self.opts.time_budget is not None and done < self.spp
-              and now - self.opts.started + per_pass > self.opts.time_budget):
-            # Stop before the pass that would end past the budget: ends within one pass of it.
+              and now - self.opts.started + per_pass * self.next_draw(done) > self.opts.time_budget):
+            # Stop before the draw that would end past the budget: ends within one draw of it.
             self.stop = "time"
         if self.stop:
             return "stop"
@@ -99,6 +101,11 @@ class Control:
             return "checkpoint"
         return None
 
+
+    def next_draw(self, done: int) -> int:
+        """Passes the draw after pass ``done`` holds (mcpt/gpu/render.py: on the global grid)."""
+        spd, chunk = self.samples_per_draw, self.chunk
+        return max(1, min(spd - done % spd, chunk - done % chunk, self.spp - done))
 
     def _warn_if_long(self, done: int, now: float) -> None:
         """After the first draw: say so when the whole render would take longer than an hour at
@@ -152,7 +159,8 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
     r = p.renderer
     spp, seed = p.scene.render.spp, p.scene.render.seed
     record = st.settings(p.scene, features_mode=opts.features_mode, clamp=opts.clamp,
-                         sampler=p.features.sampler, aovs=computed_aovs(opts.aovs, opts.denoise))
+                         sampler=p.features.sampler, aovs=computed_aovs(opts.aovs, opts.denoise),
+                         samples_per_draw=r.samples_per_draw)
     state_file = st.state_path(opts.outputs[0])
     acc = Accumulator.empty(len(r.targets), r.height, r.width)
     if opts.first_pass:
@@ -174,7 +182,7 @@ def _run(p, opts: Options, signals: StopSignals) -> Outcome:
         if acc.done < spp:
             acc.rewind_to_draw_grid(r.samples_per_draw)
     resumed_from = acc.done
-    control = Control(opts, signals, spp)
+    control = Control(opts, signals, spp, r.samples_per_draw, acc.chunk)
     timing = {"random": 0.0}
     saved = []
 

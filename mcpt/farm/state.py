@@ -61,14 +61,17 @@ def scene_hash(scene) -> str:
 
 
 def settings(scene, *, features_mode: str = "scene", clamp: float | None = None,
-             sampler: str = "sobol", aovs=()) -> dict:
+             sampler: str = "sobol", aovs=(), samples_per_draw: int | None = None) -> dict:
     """Everything besides the spp that decides a render's numbers, by name. ``aovs``: the AOVs
     computed (they decide the accumulation targets); recorded only when there are some, so
-    checkpoints of plain renders read as before."""
+    checkpoints of plain renders read as before. ``samples_per_draw`` (Renderer.samples_per_draw)
+    groups the samples into draws, so it decides the float32 sums' rounding: a checkpoint from a
+    version that drew otherwise (or recorded nothing) is refused rather than resumed off by a bit."""
     cam, rs = scene.camera, scene.render
     out = {"scene_hash": scene_hash(scene), "width": cam.width, "height": cam.height,
            "bounces": rs.bounces, "seed": rs.seed, "features_mode": features_mode,
-           "sampler": sampler, "clamp": None if clamp is None else float(clamp)}
+           "sampler": sampler, "clamp": None if clamp is None else float(clamp),
+           "samples_per_draw": samples_per_draw}
     if aovs:
         out["aov_targets"] = ",".join(aovs)
     return out

@@ -55,6 +55,9 @@ def _prepared(job: dict):
                                "workers need the same scene files at the same path")
         if [list(t) for t in p.renderer.tiles] != [list(t) for t in job["tiles"]]:
             raise FarmError("this worker's GL limits split the image into other tiles")
+        if p.renderer.samples_per_draw != job["samples_per_draw"]:
+            raise FarmError(f"this worker draws {p.renderer.samples_per_draw} samples a draw, the "
+                            f"render {job['samples_per_draw']}: another mcpt version")
         _PREPARED[key] = p
     return _PREPARED[key]
 

@@ -53,13 +53,13 @@ LLVMPIPE_LOOP_LIMIT = 65535
 # alternating (LP 2 threads, 64 spp, seconds relative to 4 a draw): Cornell box 128x128 16 -> 0.88,
 # 32 -> 0.85; 256x256 64 -> 0.82; 512x512 16 -> 0.88, 64 -> 0.83; 100k sphere 128x128 64 -> 0.89
 # (the gain is per pixel, not a per-draw overhead: it holds at every size). The cap is the draw's
-# length: a draw is where --time, signals and progress can step in, so it holds at most
-# PATHS_PER_DRAW paths (a few seconds on llvmpipe) unless that would mean fewer than
+# length: a draw is where --time and signals can step in, so it holds at most PATHS_PER_DRAW
+# paths (~3 s at the 100k sphere's 1.3 M paths/s on llvmpipe) unless that would mean fewer than
 # MIN_SAMPLES_PER_DRAW samples; MAX_SAMPLES_PER_DRAW is the read-back chunk (render.py), which a
 # draw never spans. needs_continuation below assumes no draw takes more than the maximum.
 MIN_SAMPLES_PER_DRAW = 4
 MAX_SAMPLES_PER_DRAW = 64
-PATHS_PER_DRAW = 1 << 23
+PATHS_PER_DRAW = 1 << 22
 
 
 def samples_per_draw(width: int, height: int) -> int:

@@ -69,26 +69,30 @@ GPU_COUNT_SHIFT = 28
 GPU_ADDRESS_LIMIT = 1 << GPU_COUNT_SHIFT
 
 
-#: Boxes in the GPU layouts are grown outward by this fraction of (|coordinate| + the scene's
-#: extent): >= 4 float32 ulps of the coordinate, and never 0 at a coordinate 0.
+#: Boxes in the GPU layouts are grown outward by GPU_BOX_GROWTH |coordinate| (>= 2 float32 ulps of
+#: it) plus GPU_BOX_FLOOR times the scene's extent (never 0 at a coordinate 0, and tiny: a
+#: centimetre mesh on a 10 km plane keeps its boxes).
 GPU_BOX_GROWTH = 2.0 ** -21
+GPU_BOX_FLOOR = 2.0 ** -60
 
 
 def grown_boxes(bmin: np.ndarray, bmax: np.ndarray, extent: float) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 3) float32 boxes grown outward by ``GPU_BOX_GROWTH * (|c| + extent)`` per coordinate.
+    """(N, 3) float32 boxes grown outward by ``GPU_BOX_GROWTH |c| + GPU_BOX_FLOOR extent`` per
+    coordinate.
 
     Why: a ray parallel to a slab (direction component 0, replaced by 1e-30 in glsl/bvh.glsl
     safe_inv) whose origin lies exactly on one of the slab's planes gets 0 * 1e30 = 0 there, so a
     flat box (an axis-aligned wall's) ended at t = 0 for it and was missed (issue #6, stability
     case watertight-flat-grid-axis-rays). The shader used to push such slabs out per box and per
     step (six compares and a multiply-add per box: 4-5 % of paths/s, issue #14); with every box
-    grown here the origin is strictly inside by at least ``GPU_BOX_GROWTH * extent``, which times
-    1e30 is beyond any ray's reach. A few ulps more box costs no measurable traversal work.
+    grown here the origin is strictly inside by at least ``GPU_BOX_FLOOR * extent``, which times
+    1e30 (~1e12 extents) is beyond any ray's reach. A few ulps more box cost no measurable
+    traversal work.
     Empty boxes (+inf / -inf) stay empty."""
     lo, hi = np.asarray(bmin, np.float64), np.asarray(bmax, np.float64)
     with np.errstate(invalid="ignore"):
-        glo = np.where(np.isfinite(lo), lo - GPU_BOX_GROWTH * (np.abs(lo) + extent), lo)
-        ghi = np.where(np.isfinite(hi), hi + GPU_BOX_GROWTH * (np.abs(hi) + extent), hi)
+        glo = np.where(np.isfinite(lo), lo - (GPU_BOX_GROWTH * np.abs(lo) + GPU_BOX_FLOOR * extent), lo)
+        ghi = np.where(np.isfinite(hi), hi + (GPU_BOX_GROWTH * np.abs(hi) + GPU_BOX_FLOOR * extent), hi)
     return glo.astype(np.float32), ghi.astype(np.float32)
 
 
@@ -198,7 +202,8 @@ class BVH:
         texel address of its record, plus ``count << 28`` for a leaf of ``count`` consecutive
         triangle records. Nodes and triangles share the buffer so one traversal step reads a node
         OR a triangle with the same four fetches (issue #14). A tree that is a single leaf becomes
-        one node whose right child is an empty box no ray enters.
+        one node whose right child is an empty box (+inf / -inf; the slab test swaps its bounds, so a
+        ray does enter it and tests the one leaf again: the same hits, one wasted step).
 
         Args:
             tris_reordered: (F, 3, 3) float32 triangles in BVH order (``tris[bvh.order]``), in the
