@@ -460,3 +460,18 @@ def test_the_time_budget_looks_one_draw_ahead():
 
     c = Control(Options(["x.exr"]), StopSignals(), spp=200, samples_per_draw=32, chunk=64)
     assert [c.next_draw(d) for d in (0, 32, 40, 64, 192, 199)] == [32, 32, 24, 32, 8, 1]
+
+
+def test_a_checkpoint_of_an_older_version_is_refused_in_one_line(folder):
+    """A checkpoint that records no samples_per_draw (written before draws held up to 64 samples)
+    cannot promise the same bits: refused, saying so."""
+    from mcpt.farm import state as st
+
+    assert invoke("scene.yaml", "--spp", "64", "--checkpoint", "1000", "-o", "a.exr").exit_code == 0
+    acc, record = st.load("a.exr.state.npz")
+    record = {k: v for k, v in record.items() if k not in ("samples_per_draw", "format", "done", "chunk")}
+    st.save("a.exr.state.npz", acc, record)
+    r = invoke("scene.yaml", "--spp", "128", "--resume", "-o", "a.exr")
+    assert r.exit_code == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "records no samples_per_draw (written by another version of mcpt)" in lines[0], lines

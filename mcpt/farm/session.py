@@ -101,7 +101,6 @@ class Control:
             return "checkpoint"
         return None
 
-
     def next_draw(self, done: int) -> int:
         """Passes the draw after pass ``done`` holds (mcpt/gpu/render.py: on the global grid)."""
         spd, chunk = self.samples_per_draw, self.chunk

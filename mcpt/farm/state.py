@@ -82,6 +82,8 @@ def mismatch(expected: dict, found: dict, keys=None, here: str = "this render",
     """'seed is 4 in this render but 3 in the checkpoint' for the first setting that differs."""
     for k in keys or expected:
         if str(expected.get(k)) != str(found.get(k)):
+            if k not in found and expected.get(k) is not None:
+                return f"{there} records no {k} (written by another version of mcpt)"
             if k == "scene_hash":
                 return (f"the scene differs (geometry, materials, camera or a file it names; "
                         f"hash {expected.get(k)} in {here}, {found.get(k)} in {there})")
