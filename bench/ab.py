@@ -26,7 +26,6 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from . import scenes as bench_scenes
 

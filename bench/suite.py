@@ -11,11 +11,11 @@ import time
 import traceback
 from pathlib import Path
 
-from . import common, peer_run, report, sweeps
+from . import common, peer_run, report, sweeps, throughput
 
 # "all" is the default set; "peer" (mcpt and Mitsuba 3 side by side, issue #14) runs when named.
-SWEEPS = {**sweeps.SWEEPS, "peer": peer_run.peer_sweep}
-ALL = tuple(sweeps.SWEEPS)
+SWEEPS = {**sweeps.SWEEPS, "throughput": throughput.throughput_sweep, "peer": peer_run.peer_sweep}
+ALL = tuple(k for k in SWEEPS if k != "peer")
 ALIASES = {"spec": "throughput", "paths": "throughput", "tris": "triangles", "err": "error",
            "bounce": "bounces", "mitsuba": "peer"}
 
