@@ -48,23 +48,6 @@ for line in sys.stdin:
 """
 
 
-def shared_scene_yaml(folder: Path, out_dir: Path) -> Path:
-    """A shared reference folder (scene.json + OBJ files) as a scene YAML file."""
-    doc = json.loads((folder / "scene.json").read_text())
-    cam = doc["camera"]
-    data = {
-        "name": doc["name"],
-        "camera": {**cam, "resolution": [doc["image"]["width"], doc["image"]["height"]]},
-        "render": {"spp": 64, "bounces": doc.get("integrator", {}).get("bounces", 8), "seed": 0},
-        "materials": {}, "meshes": [],
-    }
-    for i, obj in enumerate(doc["objects"]):
-        name = f"m{i}"
-        data["materials"][name] = {"albedo": obj["albedo"], "emission": obj["emission"]}
-        data["meshes"].append({"file": str((folder / obj["file"]).resolve()), "material": name})
-    return bench_scenes.write(data, out_dir, doc["name"])
-
-
 def scene_path(name: str, out_dir: Path) -> Path:
     if name == "cornell":
         return bench_scenes.CORNELL_YAML
@@ -74,7 +57,7 @@ def scene_path(name: str, out_dir: Path) -> Path:
         return bench_scenes.write(bench_scenes.with_model("bunny", 0, out_dir / "cache"), out_dir)
     if name.startswith("sphere"):
         folder = bench_scenes.shared_dir() / "scenes-ref" / f"cornell-{name[:6]}-{name[6:]}"
-        return shared_scene_yaml(folder, out_dir)
+        return bench_scenes.write(bench_scenes.ref_scene_yaml(folder), out_dir)
     return Path(name)
 
 

@@ -31,7 +31,6 @@ import numpy as np
 
 from . import common
 from . import scenes as bench_scenes
-from .ab import shared_scene_yaml
 
 SCENES = {"cornell": "cornell", "sphere100k": "cornell-sphere-100k"}
 
@@ -71,7 +70,7 @@ def error_table(args, folder: Path) -> list[dict]:
     for name in args.scenes.split(","):
         d = bench_scenes.shared_dir() / "scenes-ref" / SCENES[name]
         ref = common.downsample(np.asarray(read_exr(d / "reference.exr")[0], np.float32)[..., :3], res, res)
-        path = shared_scene_yaml(d, folder)
+        path = bench_scenes.write(bench_scenes.ref_scene_yaml(d), folder)
         for spp in (int(s) for s in args.spp.split(",")):
             raw, den, secs = [], [], []
             for seed in range(args.seeds):

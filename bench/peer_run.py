@@ -15,7 +15,6 @@ Ratios are mcpt / Mitsuba: paths/s ratio > 1 and time-to-error ratio < 1 mean mc
 from __future__ import annotations
 
 import itertools
-import json
 import resource
 import time
 from dataclasses import dataclass, replace
@@ -24,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from . import common, mitsuba, scenes
+from .scenes import ref_scene_yaml
 from .peer import report_lines, summarize, summary_lines
 
 PEER_SCENES = ("cornell", "cornell-sphere-100k")
@@ -51,24 +51,6 @@ def peer_config(quick: bool = True, **overrides) -> PeerConfig:
 
 def ref_scene_dir(name: str) -> Path:
     return scenes.shared_dir() / "scenes-ref" / name
-
-
-def ref_scene_yaml(scene_dir: Path) -> dict:
-    """mcpt's YAML scene (as a dict) for a shared scene folder: same camera, materials, bounces."""
-    sj = json.loads((Path(scene_dir) / "scene.json").read_text())
-    cam = sj["camera"]
-    mats, meshes = {}, []
-    for o in sj["objects"]:
-        name = Path(o["file"]).stem
-        mats[name] = {"albedo": [float(x) for x in o["albedo"]],
-                      "emission": [float(x) for x in o["emission"]]}
-        meshes.append({"file": str((Path(scene_dir) / o["file"]).resolve()), "material": name})
-    return {"name": sj.get("name", Path(scene_dir).name),
-            "camera": {"position": cam["position"], "look_at": cam["look_at"], "up": cam["up"],
-                       "vfov_deg": cam["vfov_deg"],
-                       "resolution": [sj["image"]["width"], sj["image"]["height"]]},
-            "render": {"spp": 1, "bounces": int(sj["integrator"]["bounces"]), "seed": 0},
-            "materials": mats, "meshes": meshes}
 
 
 # ------------------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@ picture whatever its units. Past the bunny's 69k triangles the bunny is midpoint
 
 from __future__ import annotations
 
+import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +36,24 @@ def shared_dir() -> Path:
     if ROOT is not None and (ROOT.parent / "shared").is_dir():
         return ROOT.parent / "shared"
     return Path.cwd().parent / "shared"
+
+
+def ref_scene_yaml(scene_dir: Path) -> dict:
+    """mcpt's YAML scene (as a dict) for a shared scene folder: same camera, materials, bounces."""
+    sj = json.loads((Path(scene_dir) / "scene.json").read_text())
+    cam = sj["camera"]
+    mats, meshes = {}, []
+    for o in sj["objects"]:
+        name = Path(o["file"]).stem
+        mats[name] = {"albedo": [float(x) for x in o["albedo"]],
+                      "emission": [float(x) for x in o["emission"]]}
+        meshes.append({"file": str((Path(scene_dir) / o["file"]).resolve()), "material": name})
+    return {"name": sj.get("name", Path(scene_dir).name),
+            "camera": {"position": cam["position"], "look_at": cam["look_at"], "up": cam["up"],
+                       "vfov_deg": cam["vfov_deg"],
+                       "resolution": [sj["image"]["width"], sj["image"]["height"]]},
+            "render": {"spp": 1, "bounces": int(sj["integrator"]["bounces"]), "seed": 0},
+            "materials": mats, "meshes": meshes}
 
 
 def models_dir() -> Path:

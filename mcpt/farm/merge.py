@@ -120,8 +120,9 @@ def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, d
         return (acc / spp.sum()).astype(np.float32)
 
     merged = mean([_beauty(ch, rec, path) for ch, rec, path in zip(files, records, paths)])
+    names = _aovs(first)
     values = {}
-    for name in _aovs(first):
+    for name in names:
         parts = [_layer(ch, name, path) for ch, path in zip(files, paths)]
         if name == "variance":  # of the weighted mean of independent estimates
             values[name] = sum(wi * wi * p.astype(np.float64) for wi, p in zip(w, parts)).astype(np.float32)
@@ -132,7 +133,7 @@ def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, d
                                           where=length > 1e-12)).astype(np.float32)
         else:
             values[name] = mean(parts)
-    layers = aov_mod.layers(values, _aovs(first))
+    layers = aov_mod.layers(values, names)
     header = {f"mcpt:{k}": first[k] for k in COMPARED}
     header.update({"mcpt:spp": str(int(spp.sum())), "mcpt:seed": first["seed"],
                    "mcpt:seeds": " ".join(r["seed"] for r in records),

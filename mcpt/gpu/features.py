@@ -251,8 +251,8 @@ class Features:
     def everything(self) -> "Features":
         """The uber-shader: every optional code path compiled in (bounces stay as given), path
         continuation included where the driver limits loops (a BVH loop may now run)."""
-        return replace(self, continuation=True, lights=True, single_light=False, sampling="mis", russian_roulette=True,
-                       bvh=True, diffuse=True, conductor=True, microfacet=True, dielectric=True,
+        return replace(self, continuation=True, lights=True, single_light=False, sampling="mis",
+                       russian_roulette=True, bvh=True, diffuse=True, conductor=True, microfacet=True, dielectric=True,
                        absorption=True, plastic=True, textures=True, smooth_normals=True,
                        fresnel_complex=True, one_sided=True)
 
