@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from mcpt import __version__
-from mcpt.output.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, ZTest, sidak_alpha, z_test, z_threshold  # noqa: F401 (re-exported)
+from mcpt.bench.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, ZTest, sidak_alpha, z_test, z_threshold  # noqa: F401 (re-exported)
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN_DIR = ROOT / "tests" / "golden"

@@ -163,7 +163,7 @@ def test_escaping_rays_give_zero(folder):
 
 
 def test_normals_unit_and_facing_the_camera_in_the_cornell_box():
-    from mcpt.shading.camera import primary_rays
+    from .rays import primary_rays
 
     sc = load_scene(ROOT / "scenes" / "cornell-box.yaml")
     p = prepare(sc, resolution=(24, 24), aovs=("normal",))

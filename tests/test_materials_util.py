@@ -1,6 +1,6 @@
 """Helpers shared by the material and sampling tests (issue #3); no tests of its own.
 
-* :func:`probe` runs glsl/probe_sample.frag: one real GLSL sampling / evaluation routine per item.
+* :func:`probe` runs tests/glsl/probe_sample.frag: one real GLSL sampling / evaluation routine per item.
 * :func:`chi2_test`: the pbrt-v4 / Mitsuba 3 goodness-of-fit test (pool cells expected < 5,
   p-value from the regularised incomplete gamma function; scipy is not a dependency).
 * :func:`renderer`: a Renderer for a world and explicit features.
@@ -14,7 +14,7 @@ import numpy as np
 from mcpt.gpu.pack import pack
 
 from mcpt.gpu.features import Features
-from mcpt.bench.probe import run_probe
+from .probes import run_test_probe
 
 MODE = {"sample": 0, "weight": 1, "eval": 2, "light": 3, "bary": 4, "texture": 5, "normal": 6,
         "eta2": 7, "fresnel_conductor": 8}
@@ -23,7 +23,8 @@ PROBE_FEATURES = Features(bounces=1).everything()
 
 
 def probe(gl, mode: str, items: np.ndarray, *, tbos=None, **uniforms) -> np.ndarray:
-    """(N, 4) uint32 from glsl/probe_sample.frag in ``mode`` over ``items`` ((N, k<=4) floats or uints)."""
+    """(N, 4) uint32 from tests/glsl/probe_sample.frag in ``mode`` over ``items`` ((N, k<=4)
+    floats or uints)."""
     items = np.asarray(items)
     n = items.shape[0]
     buf = np.zeros((n, 4), np.uint32)
@@ -41,8 +42,8 @@ def probe(gl, mode: str, items: np.ndarray, *, tbos=None, **uniforms) -> np.ndar
         if isinstance(v, (list, tuple, np.ndarray)):
             v = tuple(float(x) for x in v)
         unis["u_" + k] = v
-    return run_probe(gl, "probe_sample.frag", buf, n, preamble=PROBE_FEATURES.preamble(),
-                     key=("probe_sample", PROBE_FEATURES.key), tbos=tbos, uniforms=unis, width=1024)
+    return run_test_probe(gl, "probe_sample.frag", buf, n, preamble=PROBE_FEATURES.preamble(),
+                          key=("probe_sample", PROBE_FEATURES.key), tbos=tbos, uniforms=unis, width=1024)
 
 
 def floats(out: np.ndarray) -> np.ndarray:

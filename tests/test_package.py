@@ -21,7 +21,7 @@ def test_wheel_is_one_namespace_and_runs_outside_the_source_tree(tmp_path):
     shipped = {n.split("/", 2)[-1] for n in names if n.startswith("mcpt/glsl/")}
     on_disk = {p.name for p in (ROOT / "glsl").iterdir() if p.suffix in (".glsl", ".frag", ".vert")}
     assert on_disk and on_disk <= shipped
-    for name in ("mcpt/cli/main.py", "mcpt/bench/suite.py", "mcpt/bench/glsl/probe_tbo.frag",
+    for name in ("mcpt/cli/main.py", "mcpt/bench/suite.py", "mcpt/bench/glsl/probe_trace.frag",
                  "mcpt/scenes/cornell-box.yaml", "mcpt/scenes/cornell/light.obj",
                  "mcpt/scenes/metals.yaml", "mcpt/scenes/models/checker-cube/cube.mtl"):
         assert name in names

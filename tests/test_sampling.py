@@ -1,5 +1,5 @@
 """Chi-square goodness-of-fit tests of every sampling routine, run on the GLSL code itself
-(glsl/probe_sample.frag calls the renderer's functions), after pbrt-v4's bsdfs_test.cpp and
+(tests/glsl/probe_sample.frag calls the renderer's functions), after pbrt-v4's bsdfs_test.cpp and
 Mitsuba 3's chi2.py (../shared/research/anchors-reliability.md, C3/C4): samples are binned over
 the sphere in (cos theta, phi), expected counts come from the GLSL pdf integrated over each cell,
 cells expecting < 5 are pooled, and each test must reach the Sidak-corrected alpha."""

@@ -48,6 +48,21 @@ def test_compiler_errors_name_the_file_and_line(gl, tmp_path, monkeypatch):
     assert "helper.glsl:3" in str(e.value)
 
 
+def test_a_program_of_the_callers_own_text_includes_the_library_files(gl):
+    """program(fragment_text=): the caller's source, glsl/ includes, errors named by its name."""
+    text = ('#include "common.glsl"\nout vec4 o;\n'
+            "vec4 f() { return vec4(non_finite(1.0) ? 1.0 : 0.0); }\nvoid main() { o = f(); }\n")
+    prog = shader.program(gl.ctx, "fullscreen.vert", "mine.frag", "", ("mine",), fragment_text=text)
+    assert prog is shader.program(gl.ctx, "fullscreen.vert", "mine.frag", "", ("mine",),
+                                  fragment_text=text)
+    with pytest.raises(ShaderError) as e:
+        shader.program(gl.ctx, "fullscreen.vert", "mine.frag", "", ("mine",),
+                       fragment_text=text.replace("vec4(non", "vec2(non"))  # returns a vec2
+    assert "mine.frag:3" in str(e.value)
+    src = Source("mine.frag", "", text)
+    assert src.files[:3] == ["<preamble>", "mine.frag", "common.glsl"]
+
+
 def test_programs_are_cached_by_feature_key(gl):
     f = Features(bounces=1)
     a = shader.program(gl.ctx, "fullscreen.vert", "pathtrace.frag", f.preamble(), f.key)

@@ -5,7 +5,7 @@ import pytest
 
 from mcpt.shading import sobol
 from mcpt.gpu.context import shared_context
-from mcpt.bench.probe import run_probe
+from .probes import run_test_probe
 
 from .test_materials_util import chi2_test
 
@@ -41,8 +41,8 @@ def test_gpu_matches_numpy_bit_for_bit():
     probe[:8, 2] = np.arange(8)
     seed = 12345
     gl = shared_context()
-    out = run_probe(gl, "probe_sobol.frag", probe, n, uniforms={"u_sobol_seed": sobol.seed32(seed)},
-                    key="sobol")
+    out = run_test_probe(gl, "probe_sobol.frag", probe, n, key="sobol",
+                         uniforms={"u_sobol_seed": sobol.seed32(seed)})
     got = out[:, :3].view(np.float32)
     want = sobol.sample_2d(seed, probe[:, 0], probe[:, 1], probe[:, 2])
     assert np.array_equal(got[:, :2], want)

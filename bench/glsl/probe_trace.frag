@@ -1,6 +1,6 @@
-// Test probe (tests/test_bvh_gpu.py): trace the ray stored in texels 2i, 2i+1 of the probe buffer
-// (origin.xyz, direction.xyz as float bits) through the real traversal and return
-// (t bits, triangle index + 1, bary bits) -- 0 for a miss.
+// Probe (bench/stability/watertight.py; tests/test_bvh_gpu.py, test_bvh_sah.py): trace the ray
+// stored in texels 2i, 2i+1 of the probe buffer (origin.xyz, direction.xyz as float bits) through
+// the real traversal and return (t bits, triangle index + 1, bary bits) -- 0 for a miss.
 #include "common.glsl"
 #include "bvh.glsl"
 layout(binding = 6) uniform usamplerBuffer u_probe;

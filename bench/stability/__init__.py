@@ -12,7 +12,7 @@ of the environment returning the reason and the fix (or None where the case is e
 e.g. on a GPU without llvmpipe's loop limit). pytest marks such a case ``xfail(strict=True)``,
 so fixing the cause turns it into a failure that asks for the mark to go.
 
-Statistics: renders are compared with :func:`mcpt.output.stats.z_test` (per pixel-channel z-test with a
+Statistics: renders are compared with :func:`mcpt.bench.stats.z_test` (per pixel-channel z-test with a
 Šidák-corrected threshold, 99.75 % must accept, plus the image mean within 4 standard errors).
 Everything is seeded, and llvmpipe is bit-deterministic, so a case gives the same numbers on
 every run on one machine.

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from mcpt.gpu.pack import pack
-from mcpt.output.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
+from mcpt.bench.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
 from mcpt.scene.shipped import shipped
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mcpt.output.stats import z_test
+from mcpt.bench.stats import z_test
 from mcpt.scene.shipped import shipped
 
 from .core import case, Env, make_scene, Outcome, render, write_obj

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mcpt.output.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
+from mcpt.bench.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
 from mcpt.scene.shipped import shipped
 
 from .core import case, compare_images, Env, fmt, make_scene, Outcome, render, write_obj

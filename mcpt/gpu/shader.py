@@ -8,6 +8,10 @@ the driver: the source of a diffuse-only scene holds no glass or metal code. Ski
 blank lines, which keeps every line number right. Each file gets a GLSL source-string number and every
 chunk is preceded by ``#line N SOURCE``, so a compiler message such as ``3:42(7): error`` can be
 translated back to ``bvh.glsl:42``. Compiled programs are cached by (entry files, feature key).
+
+A program of the caller's own (a shader that calls the library's GLSL functions, e.g. to check one
+routine in isolation) passes its fragment source as text: :func:`program` ``fragment_text``. Its
+``#include`` lines name files of glsl/ and are assembled the same way.
 """
 
 from __future__ import annotations
@@ -43,19 +47,22 @@ def glsl_dir() -> Path:
 
 
 @lru_cache(maxsize=None)
-def _read(name: str, extra: tuple[Path, ...] = ()) -> str:
-    """A shader file from ``extra`` folders (searched first: e.g. a test's probe shaders) or glsl/."""
-    for folder in (*extra, glsl_dir()):
-        if (folder / name).is_file():
-            return (folder / name).read_text()
-    raise ShaderError(f"shader file {name!r} not found in {[str(f) for f in (*extra, glsl_dir())]}")
+def _read(name: str) -> str:
+    """A shader file of glsl/."""
+    path = glsl_dir() / name
+    if not path.is_file():
+        raise ShaderError(f"shader file {name!r} not found in {glsl_dir()}")
+    return path.read_text()
 
 
 class Source:
-    """An assembled GLSL source plus the table that maps source-string numbers to file names."""
+    """An assembled GLSL source plus the table that maps source-string numbers to file names.
 
-    def __init__(self, entry: str, preamble: str, extra: tuple[Path, ...] = ()):
-        self.extra = tuple(extra)
+    ``text``: the entry's own source instead of glsl/``entry`` (``entry`` then only names it in
+    compiler messages); its includes still come from glsl/."""
+
+    def __init__(self, entry: str, preamble: str, text: str | None = None):
+        self._entry_text = {entry: text} if text is not None else {}
         self.files: list[str] = ["<preamble>"]
         self._seen: set[str] = set()
         self._defines = {k: int(v) for k, v in _DEFINE.findall(preamble)}
@@ -76,7 +83,8 @@ class Source:
         def live() -> bool:
             return all(not f["dead"] and (not f["known"] or f["active"]) for f in frames)
 
-        for lineno, line in enumerate(_read(name, self.extra).splitlines(), start=1):
+        source = self._entry_text[name] if name in self._entry_text else _read(name)
+        for lineno, line in enumerate(source.splitlines(), start=1):
             d = _DIRECTIVE.match(line)
             if d:
                 out.append(self._directive(d.group(1), d.group(2), frames, live, line, name, lineno))
@@ -154,14 +162,14 @@ class Source:
 _cache: dict = {}
 
 
-def program(ctx, vertex: str, fragment: str, preamble: str, key, *, extra: tuple[Path, ...] = ()):
-    """Compile (or fetch from the cache) the program for ``key`` on ``ctx``; ``extra``: folders
-    searched before glsl/ for the entry files and their includes."""
-    extra = tuple(Path(e) for e in extra)
-    ck = (id(ctx), vertex, fragment, key, extra)
+def program(ctx, vertex: str, fragment: str, preamble: str, key, *, fragment_text: str | None = None):
+    """Compile (or fetch from the cache) the program for ``key`` on ``ctx`` from the glsl/ files
+    ``vertex`` and ``fragment``, or with ``fragment_text`` from that fragment source (a program of
+    the caller's; ``fragment`` names it in compiler messages, its includes come from glsl/)."""
+    ck = (id(ctx), vertex, fragment, key, fragment_text)
     if ck in _cache:
         return _cache[ck]
-    vs, fs = Source(vertex, preamble, extra), Source(fragment, preamble, extra)
+    vs, fs = Source(vertex, preamble), Source(fragment, preamble, fragment_text)
     try:
         prog = ctx.program(vertex_shader=vs.text, fragment_shader=fs.text)
     except Exception as exc:  # moderngl.Error carries the driver's log

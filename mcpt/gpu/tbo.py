@@ -33,7 +33,6 @@ UNITS = {
     "lights": 3,      # emissive triangle table, 1 texel each (mcpt/shading/lights.py)
     "materials": 4,   # material table, 2 or 4 texels each (mcpt/shading/materials.py)
     "random": 5,      # per-pass random numbers, 1 float each (mcpt/shading/sampler.py)
-    "probe": 6,       # test-only probe data
     "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/shading/normals.py)
     "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/shading/texture.py)
     "textures": 9,    # albedo images: headers + sRGB texels (mcpt/shading/texture.py)

@@ -1,1 +1,1 @@
-"""Results: image files (``image``) and the statistics to compare renders (``stats``)."""
+"""Results: image files (``image``), their AOV layers (``layers``) and the denoiser (``denoise``)."""

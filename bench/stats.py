@@ -10,8 +10,10 @@ Each of the N pixel-channels is tested at the Šidák-corrected level
 ``alpha_pix = 1 - (1 - alpha)^(1/N)`` (alpha = 0.01 for the whole image), and the images agree if
 at least 99.75 % of the pixel-channels accept (Mitsuba's figure) and the image mean of every
 channel agrees within 4 standard errors (catches a small global bias that no single pixel shows).
-Any NaN/Inf or a shape mismatch fails outright. A user comparing two renders (or a render with an
-analytic answer) may call :func:`z_test` directly.
+Any NaN/Inf or a shape mismatch fails outright. The stability suite (bench/stability/) judges its
+renders with :func:`z_test`, the golden tests (tests/goldens.py) theirs; anyone comparing two renders
+(or a render with an analytic answer) may call it directly. It lives with the benchmarks, not in
+the renderer: rendering never needs it.
 """
 
 from __future__ import annotations
