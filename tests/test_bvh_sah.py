@@ -111,7 +111,7 @@ def test_counters_are_compiled_out_by_default_and_add_up(gl):
     from mcpt.gpu.shader import Source
 
     from mcpt.gpu.features import Features
-    plain = Source("pathtrace.frag", Features(bounces=2).preamble()).text
+    plain = Source("pathtrace.frag", Features.of(bounces=2).preamble()).text
     assert "atomicAdd" not in plain
     m = measure(ROOT / "scenes" / "bunny-metal.yaml", resolution=(32, 32), bounces=2)
     assert m["bvh"] and m["rays"] >= 32 * 32 and 0 < m["shadow_rays"] < m["rays"]

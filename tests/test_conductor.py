@@ -177,7 +177,7 @@ def test_fresnel_none_white_furnace_is_exact(gl):
     exactly 1 in every sample (roulette off); with reflectance 0.9 the geometric series."""
     res, f = render(gl, furnace("{type: conductor, fresnel: none, specular_reflectance: [1, 1, 1], "
                                 "emission: [1, 1, 1]}"), 2, 1, russian_roulette=False)
-    assert f.conductor and not f.fresnel_complex and f.material_texels == 4
+    assert f.uses.conductor and not f.uses.fresnel_complex and f.material_texels == 4
     np.testing.assert_array_equal(res.image, 9.0)
     res, _ = render(gl, furnace("{type: conductor, fresnel: none, specular_reflectance: [0.9, 0.9, 0.9], "
                                 "emission: [1, 1, 1]}"), 2, 1, russian_roulette=False)
@@ -190,7 +190,7 @@ def test_complex_mirror_furnace_is_the_fresnel_series(gl):
     facets tilt the rays a little more at each bounce: the bound allows cosines down to 0.9."""
     res, f = render(gl, furnace("{type: conductor, metal: Ag, emission: [1, 1, 1]}", res=8), 2, 1,
                     russian_roulette=False)
-    assert f.fresnel_complex and f.material_texels == 5
+    assert f.uses.fresnel_complex and f.material_texels == 5
     eta, k = METALS["Ag"]
     lo, hi = fr_complex(0.9, eta, k), fr_complex(1.0, eta, k)
     img = res.image.reshape(-1, 3).astype(np.float64)
@@ -222,7 +222,7 @@ meshes:
 def test_one_sided_surface_is_black_from_behind(gl, two_sided, back):
     mat = f"{{type: conductor, fresnel: none, two_sided: {str(two_sided).lower()}}}"
     res, f = render(gl, _quad_scene(mat, back), 2, 5)
-    assert f.one_sided == (not two_sided)
+    assert f.uses.one_sided == (not two_sided)
     centre = res.image[3:5, 3:5]  # the quad covers the middle pixels
     corner = res.image[0, 0]      # the enclosure
     np.testing.assert_array_equal(corner, 1.0)
@@ -280,7 +280,7 @@ def test_material_table_carries_the_fresnel_modes():
     i = mt.names.index("m")
     assert mt.fresnel[i] == "conductor"  # implied by metal
     f = for_world(gold)
-    assert f.fresnel_complex and f.defines()["MCPT_FRESNEL_COMPLEX"] == 1 and f.material_texels == 5
+    assert f.uses.fresnel_complex and f.defines()["MCPT_FRESNEL_COMPLEX"] == 1 and f.material_texels == 5
     from mcpt.gpu.pack import pack
 
     buf = pack(gold, f).buffers["materials"].reshape(-1, 5, 4)[i]
@@ -292,8 +292,8 @@ def test_material_table_carries_the_fresnel_modes():
     for text, texels in (("{type: conductor, fresnel: none}", 4), ("{type: conductor}", 4),
                          ("{two_sided: false}", 4), ("{}", 2)):
         f = for_world(load_world(_mat(text)))
-        assert f.material_texels == texels and not f.fresnel_complex, text
-    assert for_world(load_world(_mat("{two_sided: false}"))).one_sided
+        assert f.material_texels == texels and not f.uses.fresnel_complex, text
+    assert for_world(load_world(_mat("{two_sided: false}"))).uses.one_sided
 
 
 def test_specular_reflectance_forms():

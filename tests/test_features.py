@@ -123,3 +123,29 @@ def test_samples_per_draw_follow_the_image_size():
         assert n & (n - 1) == 0 and MIN_SAMPLES_PER_DRAW <= n <= MAX_SAMPLES_PER_DRAW
         assert w * h * n <= PATHS_PER_DRAW or n == MIN_SAMPLES_PER_DRAW
         assert n == MAX_SAMPLES_PER_DRAW or w * h * 2 * n > PATHS_PER_DRAW  # the largest that fits
+
+
+def test_features_keep_scene_uses_apart_from_options_limits_and_switches():
+    """What the scene uses (for_world) is one group; the estimator, the uber-shader and the driver's
+    limit are others, and none of them changes what the scene is said to use."""
+    from mcpt.gpu.features import LLVMPIPE_LOOP_LIMIT, Features, Switches, for_world
+    from mcpt.shapes.world import load_world
+
+    world = load_world(load_scene(CORNELL))
+    plain = for_world(world)
+    nee = for_world(world, sampling="nee", loop_limit=LLVMPIPE_LOOP_LIMIT)
+    uber = plain.everything()
+    assert plain.uses == nee.uses == uber.uses  # the Cornell box: diffuse, written out, 2 lights
+    assert not plain.uses.conductor and plain.uses.written_out == 36
+    assert nee.switches == Switches(sampling="nee") and nee.limits.loop_limit == LLVMPIPE_LOOP_LIMIT
+    assert (plain.defines()["MCPT_MIS"], nee.defines()["MCPT_MIS"], nee.defines()["MCPT_NEE"]) == (1, 0, 1)
+    # The uber-shader compiles what the scene does not use; its program is another one.
+    assert uber.switches.uber and uber.compiled.conductor and uber.defines()["MCPT_MAT_CONDUCTOR"] == 1
+    assert uber.key != plain.key and dict(uber.key)["conductor"] and not dict(plain.key)["conductor"]
+    # Fields are named alike everywhere; a misspelt one is refused, not ignored.
+    assert Features.of(bounces=2, sampling="bsdf", bvh=False).defines()["MCPT_NEE"] == 0
+    assert plain.replace(sampling="nee", loop_limit=LLVMPIPE_LOOP_LIMIT) == nee
+    with pytest.raises(TypeError, match="sampleing"):
+        for_world(world, sampleing="nee")
+    with pytest.raises(ValueError, match="sampling"):
+        Features.of(bounces=2, sampling="bdsf")

@@ -255,7 +255,8 @@ def test_diffuse_scene_uploads_no_normals_uvs_or_material_parameters():
 
     world = load_world(load_scene(ROOT / "scenes" / "cornell-box.yaml"))
     f = for_world(world)
-    assert not (f.conductor or f.dielectric or f.plastic or f.textures or f.smooth_normals)
+    u = f.uses
+    assert not (u.conductor or u.dielectric or u.plastic or u.textures or u.smooth_normals)
     assert world.normals is None and world.uvs is None and not world.textures
     bufs = pack(world, f).buffers
     assert set(bufs) == {"tris", "nodes", "materials", "lights"} - ({"nodes"} if not f.bvh else set())
@@ -282,9 +283,10 @@ def test_features_follow_the_materials_a_scene_uses(tmp_path):
   - {{file: {BOX}/light.obj, material: lamp}}""", tmp_path)
     world = load_world(s)
     f = for_world(world)
-    assert f.diffuse and f.conductor and f.microfacet and f.dielectric and f.absorption
-    assert not f.plastic  # defined but used by no mesh
-    assert f.textures and f.smooth_normals and f.material_texels == 4
+    u = f.uses
+    assert u.diffuse and u.conductor and u.microfacet and u.dielectric and u.absorption
+    assert not u.plastic  # defined but used by no mesh
+    assert u.textures and u.smooth_normals and u.material_texels == 4
     assert len(world.textures) == 1 and world.uvs.shape == (world.n_triangles, 3, 2)
     bufs = pack(world, f).buffers
     assert {"normals", "uvs", "textures"} <= set(bufs)
@@ -312,9 +314,9 @@ def test_diffuse_scene_shader_source_has_no_other_material_code():
     from mcpt.gpu.features import Features
     from mcpt.gpu.shader import Source
 
-    uber = Source("pathtrace.frag", Features(bounces=8).everything().preamble()).text
+    uber = Source("pathtrace.frag", Features.of(bounces=8).everything().preamble()).text
     assert all(word in uber for word in MATERIAL_CODE)
-    text = Source("pathtrace.frag", Features(bounces=8).preamble()).text
+    text = Source("pathtrace.frag", Features.of(bounces=8).preamble()).text
     assert [w for w in MATERIAL_CODE if w in text] == []
 
 

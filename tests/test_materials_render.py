@@ -46,14 +46,14 @@ def test_white_mirror_furnace_is_exact(gl):
     exactly 1, in every sample, with roulette off."""
     res, f = render(gl, furnace("{type: conductor, albedo: [1, 1, 1], emission: [1, 1, 1]}"), 2, 1,
                     russian_roulette=False)
-    assert f.conductor and not f.microfacet
+    assert f.uses.conductor and not f.uses.microfacet
     np.testing.assert_array_equal(res.image, 9.0)
 
 
 def test_white_plastic_furnace_matches_the_analytic_value(gl):
     """A white plastic reflects all light: Le (bounces + 1) as for the mirror, within noise."""
     res, f = render(gl, furnace("{type: plastic, albedo: [1, 1, 1], emission: [1, 1, 1]}"), 32, 2)
-    assert f.plastic
+    assert f.uses.plastic
     img, var = res.image.astype(np.float64), res.variance.astype(np.float64)
     se = np.sqrt(var.mean() / img.size * 3)  # pooled: every pixel sees the same statistics
     assert res.dropped_samples == 0
@@ -77,7 +77,7 @@ def test_glass_sphere_in_a_uniform_emitter_is_invisible(gl):
     measured 2e-4 at 200 bounces with smooth normals. (A flat-faceted sphere traps more: its facets
     break the symmetry that keeps a perfect sphere's internal angles below the critical angle.)"""
     res, f = render(gl, load_scene(SCENES / "furnace-glass.yaml"), 64, 4)
-    assert f.dielectric and f.smooth_normals
+    assert f.uses.dielectric and f.smooth_normals
     img, var = res.image.astype(np.float64), res.variance.astype(np.float64)
     z = (img - 1.0) / np.sqrt(np.maximum(var, 1e-12))
     assert res.dropped_samples == 0
@@ -138,7 +138,10 @@ def test_nee_bsdf_and_mis_agree_on_every_material(gl):
     out = {}
     for seed, mode in enumerate(("mis", "nee", "bsdf")):
         res, f = render(gl, scene, spp, 100 + seed, sampling=mode)
-        assert f.conductor and f.microfacet and f.dielectric and f.plastic and f.diffuse
+        u = f.uses
+        assert u.conductor and u.microfacet and u.dielectric and u.plastic and u.diffuse
+        # the switch picks the estimator; the scene's uses stay the same
+        assert (f.nee, f.mis) == {"mis": (True, True), "nee": (True, False), "bsdf": (False, False)}[mode]
         assert res.dropped_samples == 0
         out[mode] = (res.image.astype(np.float64), res.variance.astype(np.float64))
     for a, b in (("mis", "nee"), ("mis", "bsdf"), ("nee", "bsdf")):
@@ -189,7 +192,7 @@ meshes:
   - {{file: models/icosphere.obj, material: glass, transform: {{scale: 0.1}}}}
 """
     res, f = render(gl, parse_scene(text, SCENES / "inline.yaml"), 256, 5)
-    assert f.absorption
+    assert f.uses.absorption
     F = (0.5 / 2.5) ** 2
     T = np.array([0.5, 0.7, 0.9])
     want = F + (1 - F) ** 2 * T / (1 - F * T)

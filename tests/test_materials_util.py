@@ -19,7 +19,7 @@ from .probes import run_test_probe
 MODE = {"sample": 0, "weight": 1, "eval": 2, "light": 3, "bary": 4, "texture": 5, "normal": 6,
         "eta2": 7, "fresnel_conductor": 8}
 TYPE = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
-PROBE_FEATURES = Features(bounces=1).everything()
+PROBE_FEATURES = Features.of(bounces=1).everything()
 
 
 def probe(gl, mode: str, items: np.ndarray, *, tbos=None, **uniforms) -> np.ndarray:

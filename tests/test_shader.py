@@ -10,7 +10,7 @@ from mcpt.gpu.shader import ShaderError, Source, glsl_dir
 
 
 def test_every_feature_define_used_in_glsl_is_declared():
-    declared = set(Features(bounces=3).defines())
+    declared = set(Features.of(bounces=3).defines())
     used = set()
     for path in glsl_dir().iterdir():
         used |= set(re.findall(r"\bMCPT_[A-Z0-9_]+\b", path.read_text()))
@@ -19,7 +19,7 @@ def test_every_feature_define_used_in_glsl_is_declared():
 
 
 def test_every_define_is_emitted_as_a_number():
-    on, off = Features(bounces=2).defines(), Features(bounces=2, sampling="nee", bvh=False).defines()
+    on, off = Features.of(bounces=2).defines(), Features.of(bounces=2, sampling="nee", bvh=False).defines()
     assert on.keys() == off.keys()  # a feature switched off is emitted as 0, never left out
     for value in on.values():
         assert isinstance(value, int) and not isinstance(value, bool)
@@ -28,7 +28,7 @@ def test_every_define_is_emitted_as_a_number():
 
 
 def test_version_comes_first_and_each_file_is_included_once():
-    src = Source("pathtrace.frag", Features(bounces=2).preamble())
+    src = Source("pathtrace.frag", Features.of(bounces=2).preamble())
     assert src.text.startswith("#version ")
     assert src.files.count("geometry.glsl") == 1  # included by bvh.glsl only once
     assert "#include" not in "\n".join(l for l in src.text.splitlines() if not l.lstrip().startswith("//"))
@@ -64,7 +64,7 @@ def test_a_program_of_the_callers_own_text_includes_the_library_files(gl):
 
 
 def test_programs_are_cached_by_feature_key(gl):
-    f = Features(bounces=1)
+    f = Features.of(bounces=1)
     a = shader.program(gl.ctx, "fullscreen.vert", "pathtrace.frag", f.preamble(), f.key)
     b = shader.program(gl.ctx, "fullscreen.vert", "pathtrace.frag", f.preamble(), f.key)
     assert a is b

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import time
@@ -126,26 +125,14 @@ def make_scene(env: Env, name: str, *, camera: dict, meshes: list[dict], materia
     return parse_scene(json.dumps(doc), env.file(f"{name}.yaml"))
 
 
-def sampling_flags(mode: str) -> dict:
-    """Feature flags selecting the light-sampling strategy ("mis", "nee", "bsdf")."""
-    from mcpt.gpu.features import Features
-
-    names = {f.name for f in dataclasses.fields(Features)}
-    if "sampling" in names:
-        return {"sampling": mode}
-    if mode == "bsdf":
-        raise ValueError("this build has no BSDF-only sampling mode")
-    return {"mis": mode == "mis"}
-
-
 def render(env: Env, scene, spp: int, seed: int = 1, *, max_random_per_tile: int | None = None,
-           chunk: int = 64, sampling: str | None = None, **flags):
-    """(RenderResult, Prepared) with per-pixel variance; the renderer is released."""
+           chunk: int = 64, **flags):
+    """(RenderResult, Prepared) with per-pixel variance; the renderer is released. ``flags``:
+    features by name (mcpt/gpu/features.py derive: e.g. the switches sampling="nee",
+    russian_roulette=False)."""
     from mcpt.api import prepare
     from mcpt.gpu.render import Renderer
 
-    if sampling is not None:
-        flags.update(sampling_flags(sampling))
     p = prepare(scene, gl_backend=env.gl_backend, feature_flags={"variance": True, **flags})
     renderer = p.renderer
     try:

@@ -1,25 +1,27 @@
-"""What a scene needs, derived once: the single source of every shader define and of the data diet.
+"""What a program compiles, derived once: the single source of every shader define and of the data diet.
 
 ``Features`` is immutable and hashable; :meth:`Features.defines` emits EVERY define as 0/1 (or a
 number), so ``#if MCPT_X`` never silently reads an undefined macro, and the program cache is keyed by
-:attr:`Features.key`. ``Features.everything()`` is the uber-shader (``--features all``) used to
-measure what specialisation gains.
+:attr:`Features.key`. Its four groups each answer one question: :class:`Uses`, what the scene uses
+(:func:`for_world` reads it off the world); :class:`Options`, what the render is asked for (depth,
+sampler, outputs, clamp); :class:`Limits`, what the driver limits (llvmpipe's loop budget);
+:class:`Switches`, what a comparison or a debugging session changes (the estimator, Russian
+roulette, counters, path continuation, the uber-shader of ``--features all``), whose defaults are
+what a user renders with. Fields are named alike in :func:`derive`, :func:`for_world`,
+:meth:`Features.of` and :meth:`Features.replace` (each name is in one group); the host reads the
+program as compiled through ``Features``' properties (``features.bvh``, ``features.nee``, ...).
 
 Materials: each type compiles its own ``glsl/bsdf_<type>.glsl`` only when the scene uses it; the
 GGX microfacet code only when some conductor is rough; texture and vertex-normal lookups (and
 their UV / normal buffers) only when some material has an ``albedo_texture`` / ``smooth_normals``;
 the complex (exact conductor) Fresnel and its extra material texel only when some conductor uses
 ``fresnel: conductor``; the back-side test only when some material is one-sided.
-
-Sampling modes (``sampling``), all unbiased and used by the tests to check one another:
-``"mis"`` (default) light sampling and BSDF sampling combined by the power heuristic; ``"nee"``
-light sampling only at non-specular vertices (emitters hit by a BSDF-sampled ray count only after
-a specular bounce or from the camera); ``"bsdf"`` no light sampling, emission counts when hit.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
+import dataclasses
+from dataclasses import asdict, dataclass, fields
 
 from ..shapes.geometry import shared_vertices
 from ..shading.sampler import dims_for, layout_defines
@@ -40,6 +42,7 @@ BVH_MIN_TRIANGLES = 64
 # loop written out in full (glsl/bvh.glsl MCPT_TRI_CONST; the shader writes out exactly this many).
 TRI_CONST_MAX = 64
 
+# The estimators of Switches.sampling: MIS, and the two it combines (to check it against).
 SAMPLING_MODES = ("mis", "nee", "bsdf")
 
 # llvmpipe (gallivm's loop limiter) stops the loops of a shader invocation after 65535
@@ -97,7 +100,6 @@ def loop_limit_for(renderer: str) -> int:
     return LLVMPIPE_LOOP_LIMIT if "llvmpipe" in renderer.lower() else 0
 
 
-
 def vertex_tables(vert_addr, tri_vert_ids) -> str:
     """The defines of glsl/bvh.glsl's written-out brute-force loop (small scenes): each distinct
     vertex's u_tris texel and each corner's distinct-vertex index (mcpt/shapes/geometry.py
@@ -111,12 +113,11 @@ def vertex_tables(vert_addr, tri_vert_ids) -> str:
 
 
 @dataclass(frozen=True)
-class Features:
-    bounces: int                    # maximum scattering events (0: emitters only)
+class Uses:
+    """What the scene uses: which code and which buffers it needs (from the world alone)."""
+
     lights: bool = True             # any emissive triangle (NEE needs one)
     single_light: bool = False      # exactly one emissive triangle: no light CDF search
-    sampling: str = "mis"           # "mis", "nee" (light sampling only), "bsdf" (no light sampling)
-    russian_roulette: bool = True   # only matters when bounces > RR_START
     bvh: bool = True                # False: brute-force loop over all triangles
     bvh_dense: bool = False         # wide-leaf traversal for heavily overlapping trees (bvh.py BVH.dense)
     diffuse: bool = True            # Lambertian material present
@@ -129,37 +130,18 @@ class Features:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
-    clamp: bool = False             # biased firefly clamp, off unless asked for
-    variance: bool = False          # also accumulate squares (per-pixel variance, golden tests)
-    aov: bool = False               # albedo, normal, depth targets (glsl/aov.glsl, --aov, --denoise)
-    loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
-    counters: bool = False          # debug: count traversal work per ray (mcpt/gpu/counters.py)
-    sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
-    continuation: bool = True       # with a loop limit: continue long paths in further draws
-                                    # (derive() leaves it off where no path can need it)
 
-    def __post_init__(self):
-        if self.sampling not in SAMPLING_MODES:
-            raise ValueError(f"sampling must be one of {SAMPLING_MODES}, got {self.sampling!r}")
-        if self.sampler not in SAMPLERS:
-            raise ValueError(f"sampler must be one of {SAMPLERS}, got {self.sampler!r}")
-
-    @property
-    def nee(self) -> bool:
-        return self.lights and self.bounces >= 1 and self.sampling != "bsdf"
-
-    @property
-    def mis(self) -> bool:
-        return self.nee and self.sampling == "mis"
-
-    @property
-    def rr(self) -> bool:
-        return self.russian_roulette and self.bounces > RR_START
+    def everything(self) -> "Uses":
+        """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
+        return dataclasses.replace(
+            self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
+            dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
+            fresnel_complex=True, one_sided=True)
 
     @property
     def delta(self) -> bool:
@@ -177,21 +159,6 @@ class Features:
         return 4 if extra else 2
 
     @property
-    def random_dims(self) -> int:
-        """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return dims_for(self.bounces)
-
-    @property
-    def continues(self) -> bool:
-        """Paths are split across draws (glsl/path_state.glsl): only where loops are capped."""
-        return self.continuation and self.loop_limit > 0
-
-    @property
-    def uploads_random(self) -> bool:
-        """The independent sampler uploads its numbers every pass; sobol computes them."""
-        return self.sampler == "independent"
-
-    @property
     def written_out(self) -> int:
         """Triangles glsl/bvh.glsl tests in a written-out loop: a small scene's all (no BVH), or
         the large tail of a (non-dense) BVH's triangles, before traversing the rest."""
@@ -199,62 +166,182 @@ class Features:
             return 0
         return self.tri_const
 
-    @property
-    def key(self) -> tuple:
-        return tuple(sorted(asdict(self).items()))
 
-    def defines(self) -> dict[str, int]:
-        b = int
-        return {
-            "MCPT_BOUNCES": self.bounces,
-            "MCPT_RAND_DIMS": self.random_dims,
-            "MCPT_SAMPLER_SOBOL": b(self.sampler == "sobol"),
-            **layout_defines(),
-            "MCPT_NEE": b(self.nee),
-            "MCPT_MIS": b(self.mis),
-            "MCPT_LIGHTS": b(self.lights),
-            "MCPT_SINGLE_LIGHT": b(self.single_light),
-            "MCPT_RR": b(self.rr),
-            "MCPT_RR_START": RR_START,
-            "MCPT_BVH": b(self.bvh),
-            "MCPT_BVH_DENSE": b(self.bvh and self.bvh_dense),
-            "MCPT_TRI_CONST": self.written_out,
-            "MCPT_TRI_FIRST": self.tri_first if self.written_out else 0,
-            "MCPT_BVH_START": self.bvh_start if self.written_out and self.bvh else 0,
-            "MCPT_VERT_COUNT": len(self.vert_addr) if self.written_out else 0,
-            "MCPT_MAT_DIFFUSE": b(self.diffuse),
-            "MCPT_MAT_CONDUCTOR": b(self.conductor),
-            "MCPT_MICROFACET": b(self.conductor and self.microfacet),
-            "MCPT_MAT_DIELECTRIC": b(self.dielectric),
-            "MCPT_ABSORPTION": b(self.dielectric and self.absorption),
-            "MCPT_MAT_PLASTIC": b(self.plastic),
-            "MCPT_DELTA": b(self.delta),
-            "MCPT_MAT_TEXELS": self.material_texels,
-            "MCPT_TEXTURES": b(self.textures),
-            "MCPT_SMOOTH_NORMALS": b(self.smooth_normals),
-            "MCPT_FRESNEL_COMPLEX": b(self.conductor and self.fresnel_complex),
-            "MCPT_ONE_SIDED": b(self.one_sided),
-            "MCPT_CLAMP": b(self.clamp),
-            "MCPT_VARIANCE": b(self.variance),
-            "MCPT_AOV": b(self.aov),
-            "MCPT_LOOP_LIMIT": self.loop_limit,
-            "MCPT_COUNTERS": b(self.counters),
-            "MCPT_CONTINUE": b(self.continues),
-        }
+@dataclass(frozen=True)
+class Options:
+    """What the render is asked for (the scene's render block and the command line)."""
 
-    def preamble(self) -> str:
-        lines = [f"#define {k} {v}" for k, v in self.defines().items()]
-        if self.defines()["MCPT_VERT_COUNT"]:
-            lines.append(vertex_tables(self.vert_addr, self.tri_vert_ids))
-        return "\n".join(lines)
+    bounces: int                    # maximum scattering events (0: emitters only)
+    sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
+    clamp: bool = False             # biased firefly clamp, off unless asked for
+    variance: bool = False          # also accumulate squares (per-pixel variance: --aov variance)
+    aov: bool = False               # albedo, normal, depth targets (glsl/aov.glsl, --aov, --denoise)
+
+    def __post_init__(self):
+        if self.sampler not in SAMPLERS:
+            raise ValueError(f"sampler must be one of {SAMPLERS}, got {self.sampler!r}")
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the driver limits (loop_limit_for) and what that means for this scene's paths."""
+
+    loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
+    long_paths: bool = True         # a path may outrun one draw's share of it (needs_continuation)
+
+
+@dataclass(frozen=True)
+class Switches:
+    """Comparison and debugging switches; the defaults are what a user renders with.
+
+    ``sampling`` (all unbiased; the tests and the stability suite check them against one another):
+    ``"mis"`` light sampling and BSDF sampling combined by the power heuristic; ``"nee"`` light
+    sampling only at non-specular vertices (emitters hit by a BSDF-sampled ray count only after a
+    specular bounce or from the camera); ``"bsdf"`` no light sampling, emission counts when hit."""
+
+    sampling: str = "mis"           # the estimator: "mis", "nee" or "bsdf" (SAMPLING_MODES)
+    russian_roulette: bool = True   # off: paths end at the bounce limit only (from RR_START on)
+    counters: bool = False          # count traversal work per ray (mcpt/gpu/counters.py)
+    continuation: bool = True       # off: never continue long paths in further draws
+    uber: bool = False              # compile every optional code path (Features.everything)
+
+    def __post_init__(self):
+        if self.sampling not in SAMPLING_MODES:
+            raise ValueError(f"sampling must be one of {SAMPLING_MODES}, got {self.sampling!r}")
+
+
+_GROUPS = {"uses": Uses, "options": Options, "limits": Limits, "switches": Switches}
+_GROUP_OF = {f.name: g for g, cls in _GROUPS.items() for f in fields(cls)}  # field -> its group
+
+
+def _split(flat: dict) -> dict[str, dict]:
+    """Flat field names -> one dict per group; an unknown name is an error (a typo is no default)."""
+    if unknown := sorted(set(flat) - set(_GROUP_OF)):
+        raise TypeError(f"no feature named {unknown} (known: {sorted(_GROUP_OF)})")
+    return {g: {k: v for k, v in flat.items() if _GROUP_OF[k] == g} for g in _GROUPS}
+
+
+@dataclass(frozen=True)
+class Features:
+    """Everything one program compiles: the four groups (module docstring) and what follows."""
+
+    uses: Uses
+    options: Options
+    limits: Limits = Limits()
+    switches: Switches = Switches()
+
+    @classmethod
+    def of(cls, **flat) -> "Features":
+        """Features from field names of any group, e.g. ``Features.of(bounces=2, bvh=False)``."""
+        g = _split(flat)
+        return cls(Uses(**g["uses"]), Options(**g["options"]), Limits(**g["limits"]),
+                   Switches(**g["switches"]))
+
+    def replace(self, **flat) -> "Features":
+        """A copy with the named fields (of any group) changed."""
+        g = _split(flat)
+        return Features(*(dataclasses.replace(getattr(self, name), **g[name]) for name in _GROUPS))
 
     def everything(self) -> "Features":
         """The uber-shader: every optional code path compiled in (bounces stay as given), path
         continuation included where the driver limits loops (a BVH loop may now run)."""
-        return replace(self, continuation=True, lights=True, single_light=False, sampling="mis",
-                       russian_roulette=True, bvh=True, diffuse=True, conductor=True, microfacet=True, dielectric=True,
-                       absorption=True, plastic=True, textures=True, smooth_normals=True,
-                       fresnel_complex=True, one_sided=True)
+        return self.replace(uber=True, sampling="mis", russian_roulette=True, continuation=True)
+
+    @property
+    def compiled(self) -> Uses:
+        """The scene's uses as the program compiles them: all of them under the uber switch."""
+        return self.uses.everything() if self.switches.uber else self.uses
+
+    # The program as compiled, read by the host (pack.py, render.py): one name per question.
+    bounces = property(lambda self: self.options.bounces)
+    sampler = property(lambda self: self.options.sampler)
+    clamp = property(lambda self: self.options.clamp)
+    variance = property(lambda self: self.options.variance)
+    aov = property(lambda self: self.options.aov)
+    loop_limit = property(lambda self: self.limits.loop_limit)
+    bvh = property(lambda self: self.compiled.bvh)
+    bvh_dense = property(lambda self: self.compiled.bvh_dense)
+    textures = property(lambda self: self.compiled.textures)
+    smooth_normals = property(lambda self: self.compiled.smooth_normals)
+    material_texels = property(lambda self: self.compiled.material_texels)
+
+    @property
+    def nee(self) -> bool:
+        """Light sampling is compiled in (needs an emitter and a bounce; off for BSDF-only)."""
+        return self.compiled.lights and self.bounces >= 1 and self.switches.sampling != "bsdf"
+
+    mis = property(lambda self: self.nee and self.switches.sampling == "mis")
+    rr = property(lambda self: self.switches.russian_roulette and self.bounces > RR_START)
+
+    @property
+    def random_dims(self) -> int:
+        """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
+        return dims_for(self.bounces)
+
+    @property
+    def continues(self) -> bool:
+        """Paths are split across draws (glsl/path_state.glsl): only where loops are capped and a
+        path can outrun a draw's share (or the uber-shader's BVH loop may), unless switched off."""
+        return (self.switches.continuation and self.limits.loop_limit > 0
+                and (self.limits.long_paths or self.switches.uber))
+
+    @property
+    def uploads_random(self) -> bool:
+        """The independent sampler uploads its numbers every pass; sobol computes them."""
+        return self.options.sampler == "independent"
+
+    @property
+    def key(self) -> tuple:
+        """The program cache key: every field of the program as compiled, by name."""
+        groups = (self.compiled, self.options, self.limits, self.switches)
+        return tuple(sorted(item for g in groups for item in asdict(g).items()))
+
+    def defines(self) -> dict[str, int]:
+        b, u, o = int, self.compiled, self.options
+        written = u.written_out
+        return {
+            "MCPT_BOUNCES": o.bounces,
+            "MCPT_RAND_DIMS": self.random_dims,
+            "MCPT_SAMPLER_SOBOL": b(o.sampler == "sobol"),
+            **layout_defines(),
+            "MCPT_NEE": b(self.nee),
+            "MCPT_MIS": b(self.mis),
+            "MCPT_LIGHTS": b(u.lights),
+            "MCPT_SINGLE_LIGHT": b(u.single_light),
+            "MCPT_RR": b(self.rr),
+            "MCPT_RR_START": RR_START,
+            "MCPT_BVH": b(u.bvh),
+            "MCPT_BVH_DENSE": b(u.bvh and u.bvh_dense),
+            "MCPT_TRI_CONST": written,
+            "MCPT_TRI_FIRST": u.tri_first if written else 0,
+            "MCPT_BVH_START": u.bvh_start if written and u.bvh else 0,
+            "MCPT_VERT_COUNT": len(u.vert_addr) if written else 0,
+            "MCPT_MAT_DIFFUSE": b(u.diffuse),
+            "MCPT_MAT_CONDUCTOR": b(u.conductor),
+            "MCPT_MICROFACET": b(u.conductor and u.microfacet),
+            "MCPT_MAT_DIELECTRIC": b(u.dielectric),
+            "MCPT_ABSORPTION": b(u.dielectric and u.absorption),
+            "MCPT_MAT_PLASTIC": b(u.plastic),
+            "MCPT_DELTA": b(u.delta),
+            "MCPT_MAT_TEXELS": u.material_texels,
+            "MCPT_TEXTURES": b(u.textures),
+            "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
+            "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
+            "MCPT_ONE_SIDED": b(u.one_sided),
+            "MCPT_CLAMP": b(o.clamp),
+            "MCPT_VARIANCE": b(o.variance),
+            "MCPT_AOV": b(o.aov),
+            "MCPT_LOOP_LIMIT": self.limits.loop_limit,
+            "MCPT_COUNTERS": b(self.switches.counters),
+            "MCPT_CONTINUE": b(self.continues),
+        }
+
+    def preamble(self) -> str:
+        defines = self.defines()
+        lines = [f"#define {k} {v}" for k, v in defines.items()]
+        if defines["MCPT_VERT_COUNT"]:
+            lines.append(vertex_tables(self.compiled.vert_addr, self.compiled.tri_vert_ids))
+        return "\n".join(lines)
 
 
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
@@ -266,6 +353,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            sampler: str = "sobol", continuation: bool = True) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
+    ``sampling``, ``russian_roulette``, ``counters``, ``continuation``: :class:`Switches`;
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
     roughness >= 0.001; ``absorption``: some dielectric absorbs; ``textures`` / ``smooth_normals``:
     some used material has an albedo texture / smooth shading normals; ``fresnel_complex``: some
@@ -273,38 +361,25 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
     """
     use_bvh = (n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh
     tri_const = n_triangles if not use_bvh and 0 < n_triangles <= TRI_CONST_MAX else 0
-    return Features(
-        bounces=bounces,
-        lights=n_emissive > 0,
-        single_light=n_emissive == 1,
-        sampling=sampling,
-        russian_roulette=russian_roulette,
-        bvh=use_bvh,
-        tri_const=tri_const,
-        diffuse="diffuse" in material_types,
-        conductor="conductor" in material_types,
-        microfacet="conductor" in material_types and rough,
-        dielectric="dielectric" in material_types,
-        absorption="dielectric" in material_types and absorption,
-        plastic="plastic" in material_types,
-        textures=textures,
-        smooth_normals=smooth_normals,
-        fresnel_complex="conductor" in material_types and fresnel_complex,
+    has = material_types.__contains__
+    return Features.of(
+        # what the scene uses
+        lights=n_emissive > 0, single_light=n_emissive == 1, bvh=use_bvh, bvh_dense=bvh_dense,
+        tri_const=tri_const, diffuse=has("diffuse"), conductor=has("conductor"),
+        microfacet=has("conductor") and rough, dielectric=has("dielectric"),
+        absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,
+        smooth_normals=smooth_normals, fresnel_complex=has("conductor") and fresnel_complex,
         one_sided=one_sided,
-        clamp=clamp,
-        variance=variance,
-        aov=aov,
-        loop_limit=loop_limit,
-        counters=counters,
-        bvh_dense=bvh_dense,
-        sampler=sampler,
-        continuation=continuation and needs_continuation(loop_limit, bounces, n_triangles,
-                                                          traced=not tri_const, n_lights=n_emissive),
-    )
+        # what the render is asked for; what the driver limits; the switches
+        bounces=bounces, sampler=sampler, clamp=clamp, variance=variance, aov=aov,
+        loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
+                                                             traced=not tri_const, n_lights=n_emissive),
+        sampling=sampling, russian_roulette=russian_roulette, counters=counters, continuation=continuation)
 
 
 def for_world(world, *, bounces: int | None = None, **flags) -> Features:
-    """The features of a built world (mcpt/shapes/world.py): what its used materials need."""
+    """The features of a built world (mcpt/shapes/world.py): what its used materials need;
+    ``flags``: :func:`derive`'s options, limits and switches by name (e.g. ``loop_limit=``)."""
     mt, ids = world.materials, world.tri_material
     used = {mt.types[i] for i in mt.used(ids)}
     f = derive(
@@ -314,12 +389,12 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
     first = 0
-    if f.bvh and not f.bvh_dense:
+    if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()
         if 0 < world.n_triangles - first <= TRI_CONST_MAX and first > 0:
-            f = replace(f, tri_const=world.n_triangles - first, tri_first=first, bvh_start=start)
-    if f.written_out:
+            f = f.replace(tri_const=world.n_triangles - first, tri_first=first, bvh_start=start)
+    if f.uses.written_out:
         addr, tv = shared_vertices(world.tris[first:])
-        f = replace(f, vert_addr=tuple(int(a) + 3 * first for a in addr),
-                    tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+        f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
+                      tri_vert_ids=tuple(int(i) for i in tv.ravel()))
     return f
