@@ -92,14 +92,14 @@ class Session:
 def _open(path, cfg: Config, *, resolution, bounces=None, features_mode="scene", flags=None,
           clear_shader_cache=False) -> Session:
     from mcpt.gpu import shader
-    from mcpt.api import prepare
+    from mcpt.api import Options, prepare, run
 
     if clear_shader_cache:
         shader.clear_cache()  # so compile_seconds is a real compile, not a cache hit
     p = prepare(path, bounces=bounces, seed=cfg.seed, resolution=resolution,
                 gl_backend=cfg.gl_backend, features_mode=features_mode, feature_flags=flags)
     t0 = time.perf_counter()
-    p.renderer.render(1, cfg.seed)
+    run(p, Options(spp=1, seed=cfg.seed))
     first = time.perf_counter() - t0
     setup = p.renderer.setup
     bvh = p.world.stats.get("bvh", {})
@@ -128,9 +128,11 @@ def _cpu_seconds() -> float:
 
 
 def _render(s: Session, spp: int, seed: int) -> tuple[object, dict]:
+    from mcpt.api import Options, run
+
     c0 = _cpu_seconds()
     t0 = time.perf_counter()
-    r = s.p.renderer.render(spp, seed)
+    r = run(s.p, Options(spp=spp, seed=seed)).result
     wall = time.perf_counter() - t0
     cpu = _cpu_seconds() - c0
     mean = r.image.reshape(-1, 3).astype(np.float64).mean(axis=0)

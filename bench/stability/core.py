@@ -6,7 +6,7 @@ import dataclasses
 import json
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Callable
@@ -141,20 +141,20 @@ def sampling_flags(mode: str) -> dict:
 def render(env: Env, scene, spp: int, seed: int = 1, *, max_random_per_tile: int | None = None,
            chunk: int = 64, sampling: str | None = None, **flags):
     """(RenderResult, Prepared) with per-pixel variance; the renderer is released."""
-    from mcpt.api import prepare
+    from mcpt.api import Options, prepare, run
     from mcpt.gpu.render import Renderer
 
     if sampling is not None:
         flags.update(sampling_flags(sampling))
     p = prepare(scene, gl_backend=env.gl_backend, feature_flags={"variance": True, **flags})
-    renderer = p.renderer
     try:
         if max_random_per_tile is not None:
-            renderer.release()
-            renderer = Renderer(p.gl, p.features, pack(p.world, p.features), max_random_per_tile=max_random_per_tile)
-        result = renderer.render(spp, seed, chunk=chunk)
+            p.renderer.release()
+            p = replace(p, renderer=Renderer(p.gl, p.features, pack(p.world, p.features),
+                                             max_random_per_tile=max_random_per_tile))
+        result = run(p, Options(spp=spp, seed=seed, chunk=chunk)).result
     finally:
-        renderer.release()
+        p.renderer.release()
     return result, p
 
 
