@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mcpt.api import Options, prepare, run
+
 from . import common, peer, scenes
 
 BOUNCES = (1, 2, 3, 5, 8, 15)
@@ -92,7 +94,6 @@ class Session:
 def _open(path, cfg: Config, *, resolution, bounces=None, features_mode="scene", flags=None,
           clear_shader_cache=False) -> Session:
     from mcpt.gpu import shader
-    from mcpt.api import Options, prepare, run
 
     if clear_shader_cache:
         shader.clear_cache()  # so compile_seconds is a real compile, not a cache hit
@@ -128,8 +129,6 @@ def _cpu_seconds() -> float:
 
 
 def _render(s: Session, spp: int, seed: int) -> tuple[object, dict]:
-    from mcpt.api import Options, run
-
     c0 = _cpu_seconds()
     t0 = time.perf_counter()
     r = run(s.p, Options(spp=spp, seed=seed)).result
