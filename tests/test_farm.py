@@ -476,3 +476,18 @@ def test_a_checkpoint_of_an_older_version_is_refused_in_one_line(folder):
     assert r.exit_code == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "records no samples_per_draw (written by another version of mcpt)" in lines[0], lines
+
+
+def test_a_worker_imports_the_set_up_not_the_coordinator():
+    """Issue #18: a Dask worker prepares scenes (mcpt/prepare.py) without loading the render loop
+    or the coordinator, and the library loads no benchmark code (the counters live in bench/)."""
+    code = ("import sys, mcpt.farm.worker as w; w._prepared; import mcpt.prepare; "
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('mcpt'))))")
+    worker = set(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                check=True).stdout.split())
+    assert "mcpt.prepare" in worker and "mcpt.gpu.render" in worker
+    assert not worker & {"mcpt.render", "mcpt.api", "mcpt.farm.cluster", "mcpt.farm.control"}, worker
+    code = "import sys, mcpt.api; print(' '.join(m for m in sys.modules if m.startswith('mcpt')))"
+    library = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             check=True).stdout.split()
+    assert "mcpt.render" in library and not [m for m in library if m.startswith("mcpt.bench")]
