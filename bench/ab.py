@@ -38,11 +38,16 @@ import json, sys
 from mcpt.api import prepare
 p = prepare(sys.argv[2], resolution=(int(sys.argv[3]), int(sys.argv[4])), bounces=int(sys.argv[5]),
             gl_backend="egl")
-p.renderer.render(1, 0)  # warm-up: first-draw costs out of the timing
+try:  # the render loop of this version; a revision from before it had Renderer.render
+    from mcpt.api import Options, run
+    draw = lambda spp, seed: run(p, Options(spp=spp, seed=seed)).result
+except ImportError:
+    draw = p.renderer.render
+draw(1, 0)  # warm-up: first-draw costs out of the timing
 print(json.dumps({"ready": True, "nodes": p.world.bvh.num_nodes, "bvh": p.features.bvh}), flush=True)
 for line in sys.stdin:
     spp, seed = (int(x) for x in line.split())
-    r = p.renderer.render(spp, seed)
+    r = draw(spp, seed)
     print(json.dumps({"seconds": r.render_seconds, "paths": spp * r.image.shape[0] * r.image.shape[1],
                       "mean": float(r.image.mean())}), flush=True)
 """

@@ -24,13 +24,13 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     scene, mode = argv[0], argv[1]
     backend = argv[argv.index("--gl-backend") + 1] if "--gl-backend" in argv else None
-    from mcpt.api import prepare
+    from mcpt.api import Options, prepare, run
 
     p = prepare(scene, resolution=(16, 16), features_mode=mode, gl_backend=backend)
     t0 = time.perf_counter()
-    p.renderer.render(1, 0)
+    run(p, Options(spp=1, seed=0))
     t1 = time.perf_counter()
-    p.renderer.render(1, 0)
+    run(p, Options(spp=1, seed=0))
     t2 = time.perf_counter()
     print(json.dumps({"compile_seconds": p.renderer.setup["compile_seconds"],
                       "first_pass_seconds": t1 - t0, "second_pass_seconds": t2 - t1,

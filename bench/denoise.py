@@ -52,11 +52,11 @@ def parse(argv=None) -> argparse.Namespace:
 
 
 def _render(path, res, spp, seed, gl_backend):
-    from mcpt.api import prepare
+    from mcpt.api import Options, prepare, run
 
     p = prepare(path, resolution=res, gl_backend=gl_backend, aovs=("albedo", "normal"))
     try:
-        return p.renderer.render(spp, seed)
+        return run(p, Options(spp=spp, seed=seed)).result
     finally:
         p.renderer.release()
 
@@ -117,7 +117,7 @@ def variance_check(args) -> list[dict]:
     """The variance AOV (sample variance / spp, from one render) against the variance of the means
     of ``--variance-seeds`` renders with different seeds, per sampler: equal in expectation for
     independent numbers; Sobol' means vary less than that (the AOV is then an upper bound)."""
-    from mcpt.api import prepare
+    from mcpt.api import Options, prepare, run
 
     rows = []
     for sampler in ("independent", "sobol"):
@@ -126,7 +126,7 @@ def variance_check(args) -> list[dict]:
             p = prepare(bench_scenes.CORNELL_YAML, resolution=(32, 32), gl_backend=args.gl_backend,
                         aovs=("variance",), sampler=sampler)
             try:
-                r = p.renderer.render(args.variance_spp, 1000 + seed)
+                r = run(p, Options(spp=args.variance_spp, seed=1000 + seed)).result
             finally:
                 p.renderer.release()
             means.append(r.image.astype(np.float64))

@@ -67,19 +67,24 @@ class _Mcpt:
         self.p = prepare(path, seed=cfg.seed, resolution=(res, res), gl_backend=cfg.gl_backend,
                          sampler=sampler)
         t0 = time.perf_counter()
-        self.p.renderer.render(1, cfg.seed)  # llvmpipe compiles at the first draw
+        self._render(1, cfg.seed)  # llvmpipe compiles at the first draw
         self.info = {"setup_seconds": self.p.setup_seconds, "triangles": self.p.world.n_triangles,
                      "first_pass_seconds": time.perf_counter() - t0,
                      "features": self.p.features.defines()}
 
     def run(self, spp: int, seed: int, work: Path) -> tuple[np.ndarray, dict]:
         ru0 = resource.getrusage(resource.RUSAGE_SELF)
-        r = self.p.renderer.render(spp, seed)
+        r = self._render(spp, seed)
         ru1 = resource.getrusage(resource.RUSAGE_SELF)
         cpu = (ru1.ru_utime + ru1.ru_stime) - (ru0.ru_utime + ru0.ru_stime)
         return r.image, {"seconds": r.render_seconds, "cpu_seconds": cpu, "spp_actual": spp,
                          "bounces": r.bounces, "random_seconds": r.random_seconds,
                          "dropped_samples": r.dropped_samples}
+
+    def _render(self, spp: int, seed: int):
+        from mcpt.api import Options, run
+
+        return run(self.p, Options(spp=spp, seed=seed)).result
 
     def close(self):
         self.p.renderer.release()

@@ -23,10 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from mcpt.api import prepare
+from mcpt.api import Options, prepare, run
 from mcpt.output.image import read_exr
 
 from . import common, scenes
+
+
+def _draw(p, spp: int, seed: int):
+    """``spp`` passes of ``seed`` of the prepared scene ``p`` (the library's render loop)."""
+    return run(p, Options(spp=spp, seed=seed)).result
 
 
 def main(argv=None) -> dict:
@@ -44,17 +49,19 @@ def main(argv=None) -> dict:
     ref = common.downsample(np.asarray(ref, np.float32)[..., :3], n, n)
     scene = common.ROOT / "scenes" / "cornell-box.yaml"
     samplers = ("sobol", "independent")
-    # name: (prepare() arguments, render() arguments)
-    variants = {"sobol": ({"sampler": "sobol"}, {}),
-                "independent": ({"sampler": "independent"}, {}),
-                "sobol-1spd": ({"sampler": "sobol"}, {"samples_per_draw": 1}),
-                "sobol-4spd": ({"sampler": "sobol"}, {"samples_per_draw": 4}),
-                "sobol-nocont": ({"sampler": "sobol", "feature_flags": {"continuation": False}}, {})}
+    # name: (prepare() arguments, samples per draw: None the renderer's own)
+    variants = {"sobol": ({"sampler": "sobol"}, None),
+                "independent": ({"sampler": "independent"}, None),
+                "sobol-1spd": ({"sampler": "sobol"}, 1),
+                "sobol-4spd": ({"sampler": "sobol"}, 4),
+                "sobol-nocont": ({"sampler": "sobol", "feature_flags": {"continuation": False}}, None)}
     if a.variants:  # e.g. --variants sobol,independent,sobol-1spd
         variants = {k: v for k, v in variants.items() if k in a.variants.split(",")}
     ps = {s: prepare(scene, resolution=(n, n), bounces=8, **kw) for s, (kw, _) in variants.items()}
-    for s in variants:  # warm-up: JIT and first-touch allocations outside the timing
-        ps[s].renderer.render(1, seed=0)
+    for s, (_, spd) in variants.items():
+        if spd is not None:  # path regeneration narrower than the image allows (sobol only)
+            ps[s].renderer.samples_per_draw = spd
+        _draw(ps[s], 1, 0)  # warm-up: JIT and first-touch allocations outside the timing
     sides = list(variants) + (["baseline"] if a.baseline else [])
     rec = {"rounds": [], "sweep": {}}
     for r in range(a.rounds):
@@ -64,7 +71,7 @@ def main(argv=None) -> dict:
                 row = {"round": r, "sampler": s, "spp": a.spp, **got,
                        "relmse": common.relmse(np.load(got.pop("image_file")), ref)}
             else:
-                res = ps[s].renderer.render(a.spp, seed=100 + r, **variants[s][1])
+                res = _draw(ps[s], a.spp, 100 + r)
                 row = {"round": r, "sampler": s, "spp": a.spp,
                        "paths_per_second": res.paths_per_second,
                        "render_seconds": res.render_seconds,
@@ -89,7 +96,7 @@ def main(argv=None) -> dict:
     for s in samplers if sweep else ():
         errs, secs = [], []
         for spp in sweep:
-            res = ps[s].renderer.render(spp, seed=7)
+            res = _draw(ps[s], spp, 7)
             errs.append(common.relmse(res.image, ref))
             secs.append(res.render_seconds)
         slope = float(np.polyfit(np.log(sweep), np.log(errs), 1)[0])
@@ -108,8 +115,13 @@ import json, sys, numpy as np
 from mcpt.api import prepare
 scene, n, spp, seed, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
 p = prepare(scene, resolution=(n, n), bounces=8)
-p.renderer.render(1, seed=0)
-res = p.renderer.render(spp, seed=seed)
+try:  # the render loop of this version; a checkout from before it had Renderer.render
+    from mcpt.api import Options, run
+    draw = lambda spp, seed: run(p, Options(spp=spp, seed=seed)).result
+except ImportError:
+    draw = p.renderer.render
+draw(1, 0)
+res = draw(spp, seed)
 np.save(out, res.image)
 print(json.dumps({"paths_per_second": res.paths_per_second, "render_seconds": res.render_seconds,
                   "host_random_seconds_per_pass": res.random_seconds / spp,

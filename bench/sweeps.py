@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mcpt.api import Options, prepare, run
+
 from . import common, peer, scenes
 
 BOUNCES = (1, 2, 3, 5, 8, 15)
@@ -92,14 +94,13 @@ class Session:
 def _open(path, cfg: Config, *, resolution, bounces=None, features_mode="scene", flags=None,
           clear_shader_cache=False) -> Session:
     from mcpt.gpu import shader
-    from mcpt.api import prepare
 
     if clear_shader_cache:
         shader.clear_cache()  # so compile_seconds is a real compile, not a cache hit
     p = prepare(path, bounces=bounces, seed=cfg.seed, resolution=resolution,
                 gl_backend=cfg.gl_backend, features_mode=features_mode, feature_flags=flags)
     t0 = time.perf_counter()
-    p.renderer.render(1, cfg.seed)
+    run(p, Options(spp=1, seed=cfg.seed))
     first = time.perf_counter() - t0
     setup = p.renderer.setup
     bvh = p.world.stats.get("bvh", {})
@@ -130,7 +131,7 @@ def _cpu_seconds() -> float:
 def _render(s: Session, spp: int, seed: int) -> tuple[object, dict]:
     c0 = _cpu_seconds()
     t0 = time.perf_counter()
-    r = s.p.renderer.render(spp, seed)
+    r = run(s.p, Options(spp=spp, seed=seed)).result
     wall = time.perf_counter() - t0
     cpu = _cpu_seconds() - c0
     mean = r.image.reshape(-1, 3).astype(np.float64).mean(axis=0)

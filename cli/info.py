@@ -23,8 +23,13 @@ def info(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, 
     from mcpt.api import describe
 
     report = describe(scene_file, spp=spp, bounces=bounces, seed=seed, resolution=resolution,
-                      gl_backend=gl_backend, features_mode=features_mode, sampler=sampler,
-                      counters=counters)
+                      gl_backend=gl_backend, features_mode=features_mode, sampler=sampler)
+    if counters:  # a measuring tool of the benchmarks (bench/counters.py), not of the library
+        from mcpt.bench.counters import measure
+
+        report["traversal"] = measure(scene_file, seed=report["scene"]["seed"], spp=1,
+                                      bounces=bounces, resolution=resolution,
+                                      gl_backend=gl_backend, features_mode=features_mode)
     if as_json:
         click.echo(json.dumps(report, indent=2))
         return

@@ -1,5 +1,6 @@
 """``mcpt render``: scene file in, EXR or PNG out; time budgets, checkpoints, resume, signals,
-Dask workers (mcpt/farm/). Exit codes: README "Exit codes" and cli/group.py."""
+Dask workers. Thin: options in, the library's render loop (mcpt/render.py) out, a summary printed.
+Exit codes: README "Exit codes" and cli/group.py."""
 
 from __future__ import annotations
 
@@ -64,32 +65,19 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
            workers, scheduler, progress_mode, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     started = time.perf_counter()
-    from mcpt.farm.session import Options, run
+    from mcpt.api import Options, render as render_loop
     from mcpt.farm.signals import StopSignals
     from mcpt.gpu.aov import parse as parse_aovs
-    from mcpt.output.image import check_output_path
 
-    for output in outputs:
-        check_output_path(output)  # fail before minutes of rendering, not after
-    aovs = parse_aovs(aov_text)
-    if denoise:
-        from mcpt.output.denoise import version
-
-        version()  # no denoiser: one line, before any rendering
-    if workers is not None or scheduler is not None:
-        from mcpt.farm.cluster import require_dask
-
-        require_dask()
     prog = progress_mod.make(progress_mode, quiet)
     opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
                    gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,
-                   exposure=exposure, aovs=aovs, denoise=denoise, time_budget=time_budget,
-                   checkpoint=checkpoint, resume=resume, first_pass=first_pass,
-                   overrides=tuple(overrides), workers=workers,
-                   scheduler=scheduler, progress=prog,
-                   started=started)
+                   exposure=exposure, aovs=parse_aovs(aov_text), denoise=denoise,
+                   time_budget=time_budget, checkpoint=checkpoint, resume=resume,
+                   first_pass=first_pass, overrides=tuple(overrides), workers=workers,
+                   scheduler=scheduler, progress=prog, started=started)
     with StopSignals() as signals:
-        out = run(scene_file, opts, signals)
+        out = render_loop(scene_file, opts, signals)
     if prog is not None:
         prog.close()
     result, meta = out.result, out.meta
@@ -106,7 +94,7 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
                "resumed_from": out.resumed_from, "stopped_by": out.stopped_by,
                "checkpoint": str(out.checkpoint) if out.checkpoint else None,
                **({"farm": out.farm} if out.farm else {}),
-               "aovs": list(aovs), "denoised": denoise,
+               "aovs": list(opts.aovs), "denoised": denoise,
                "mcpt_version": __version__}
     if as_json:
         click.echo(json.dumps(summary, indent=2))

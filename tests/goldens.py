@@ -40,6 +40,8 @@ import numpy as np
 from mcpt import __version__
 from mcpt.bench.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, ZTest, sidak_alpha, z_test, z_threshold  # noqa: F401 (re-exported)
 
+from .draw import render as draw
+
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN_DIR = ROOT / "tests" / "golden"
 
@@ -154,7 +156,7 @@ def render_spec(spec: GoldenSpec, spp: int, seed: int, gl_backend: str | None = 
     p = prepare(scene_file, resolution=spec.resolution, bounces=spec.bounces, gl_backend=gl_backend,
                 feature_flags={"variance": True}, clamp=spec.clamp, sampler=sampler)
     try:
-        res = p.renderer.render(spp, seed)
+        res = draw(p.renderer, spp, seed)
     finally:
         p.renderer.release()
     meta = {

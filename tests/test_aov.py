@@ -21,6 +21,7 @@ from mcpt.output.image import read_exr, read_exr_channels
 from mcpt.scene import load_scene
 
 from .conftest import ROOT
+from .draw import render as draw
 
 WALL_ALBEDO = [0.6, 0.4, 0.2]
 BACK_ALBEDO = [0.2, 0.7, 0.3]
@@ -155,7 +156,7 @@ def test_escaping_rays_give_zero(folder):
     sc = load_scene("wall.yaml", overrides=("camera.position=[30,0,0]", "camera.look_at=[40,0,0]"))
     p = prepare(sc, aovs=("albedo", "normal", "depth"))
     try:
-        res = p.renderer.render(8, 1)
+        res = draw(p.renderer, 8, 1)
     finally:
         p.renderer.release()
     for name in ("albedo", "normal", "depth"):
@@ -168,7 +169,7 @@ def test_normals_unit_and_facing_the_camera_in_the_cornell_box():
     sc = load_scene(ROOT / "scenes" / "cornell-box.yaml")
     p = prepare(sc, resolution=(24, 24), aovs=("normal",))
     try:
-        res = p.renderer.render(16, 2)
+        res = draw(p.renderer, 16, 2)
     finally:
         p.renderer.release()
     n = res.aovs["normal"].astype(np.float64)
@@ -212,7 +213,7 @@ def test_variance_agrees_with_the_spread_of_independent_renders(folder):
     for s in seeds:
         p = prepare(load_scene("wall.yaml"), aovs=("variance",), sampler="independent")
         try:
-            res = p.renderer.render(spp, 100 + s)
+            res = draw(p.renderer, spp, 100 + s)
         finally:
             p.renderer.release()
         means.append(res.image.astype(np.float64))
@@ -293,7 +294,7 @@ def test_farm_renders_the_same_layers(folder):
     from distributed import Client
 
     from mcpt.farm.cluster import local_cluster
-    from mcpt.farm.session import Options, run
+    from mcpt.render import Options, render as run
     from mcpt.farm.signals import StopSignals
 
     aovs = ("albedo", "normal", "depth", "variance")

@@ -107,7 +107,7 @@ def test_gpu_buffer_references_every_triangle_once():
 
 
 def test_counters_are_compiled_out_by_default_and_add_up(gl):
-    from mcpt.gpu.counters import measure
+    from mcpt.bench.counters import measure
     from mcpt.gpu.shader import Source
 
     from mcpt.gpu.features import Features

@@ -444,9 +444,9 @@ def test_absurd_spp_is_refused_in_one_line(folder):
 
 def test_a_render_projected_past_an_hour_says_so_first(folder, monkeypatch):
     """Issue #10: the estimate comes after the first draw, before the bulk of the work."""
-    from mcpt.farm import session
+    from mcpt.farm import control
 
-    monkeypatch.setattr(session, "LONG_RENDER_SECONDS", 0.0)
+    monkeypatch.setattr(control, "LONG_RENDER_SECONDS", 0.0)
     r = invoke("scene.yaml", "--spp", "130", "-o", "out.exr")  # more than the first draw's 64
     assert r.exit_code == 0
     warn = [ln for ln in r.stderr.splitlines() if "will take about" in ln]

@@ -333,13 +333,13 @@ def test_plain_progress_lines_match_the_documented_format(folder, monkeypatch):
 
 
 def test_no_gl_exits_3(folder, monkeypatch):
-    from mcpt import api
+    import mcpt.prepare as prepare
     from mcpt.gpu.context import GLError
 
     def no_gl(backend=None):
         raise GLError("no GL back end works: test")
 
-    monkeypatch.setattr(api, "shared_context", no_gl)
+    monkeypatch.setattr(prepare, "shared_context", no_gl)
     r = invoke("scene.yaml", "-o", "g.exr")
     assert r.exit_code == 3 and r.stderr.startswith("mcpt: error: no GL")
 
@@ -409,11 +409,11 @@ def test_a_checkpoint_off_the_draw_grid_is_rewound_to_its_last_whole_chunk():
     acc = Accumulator.empty(1, 1, 1)
     acc.add(64, 64 * one)
     acc.add(100, 36 * one)
-    kept = Accumulator(acc.complete.copy(), acc.done, acc.partial.copy(), acc.chunk)
+    kept = Accumulator(acc.complete.copy(), acc.spp, acc.partial.copy(), acc.chunk)
     kept.rewind_to_draw_grid(4)  # 100 is a multiple of 4: carried on from the partial
-    assert kept.done == 100 and kept.partial is not None
+    assert kept.spp == 100 and kept.partial is not None
     acc.rewind_to_draw_grid(64)
-    assert acc.done == 64 and acc.partial is None and acc.totals()[0, 0, 0, 0] == 64
+    assert acc.spp == 64 and acc.partial is None and acc.totals()[0, 0, 0, 0] == 64
 
 
 @pytest.fixture
@@ -455,8 +455,9 @@ def test_a_checkpoint_drawn_otherwise_is_refused(folder, monkeypatch):
 def test_the_time_budget_looks_one_draw_ahead():
     """--time stops before the draw that would pass the budget: the next draw's passes, on the
     grid of samples per draw and read-back chunks, up to the spp."""
-    from mcpt.farm.session import Control, Options
+    from mcpt.farm.control import Control
     from mcpt.farm.signals import StopSignals
+    from mcpt.render import Options
 
     c = Control(Options(["x.exr"]), StopSignals(), spp=200, samples_per_draw=32, chunk=64)
     assert [c.next_draw(d) for d in (0, 32, 40, 64, 192, 199)] == [32, 32, 24, 32, 8, 1]
@@ -475,3 +476,18 @@ def test_a_checkpoint_of_an_older_version_is_refused_in_one_line(folder):
     assert r.exit_code == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "records no samples_per_draw (written by another version of mcpt)" in lines[0], lines
+
+
+def test_a_worker_imports_the_set_up_not_the_coordinator():
+    """Issue #18: a Dask worker prepares scenes (mcpt/prepare.py) without loading the render loop
+    or the coordinator, and the library loads no benchmark code (the counters live in bench/)."""
+    code = ("import sys, mcpt.farm.worker as w; w._prepared; import mcpt.prepare; "
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('mcpt'))))")
+    worker = set(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                check=True).stdout.split())
+    assert "mcpt.prepare" in worker and "mcpt.gpu.render" in worker
+    assert not worker & {"mcpt.render", "mcpt.api", "mcpt.farm.cluster", "mcpt.farm.control"}, worker
+    code = "import sys, mcpt.api; print(' '.join(m for m in sys.modules if m.startswith('mcpt')))"
+    library = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             check=True).stdout.split()
+    assert "mcpt.render" in library and not [m for m in library if m.startswith("mcpt.bench")]

@@ -15,7 +15,7 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from mcpt.farm.session import Options, run  # noqa: E402
+from mcpt.render import Options, render as run  # noqa: E402
 from mcpt.farm.signals import StopSignals  # noqa: E402
 
 from .test_farm import folder, same_bits  # noqa: E402,F401  (fixture)

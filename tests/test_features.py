@@ -11,6 +11,7 @@ from mcpt.api import prepare
 from mcpt.scene import load_scene
 
 from .conftest import ROOT
+from .draw import render as draw
 
 CORNELL = ROOT / "scenes" / "cornell-box.yaml"
 
@@ -54,7 +55,7 @@ def test_specialised_and_uber_shader_images_agree_within_noise():
     images = []
     for mode in ("scene", "all"):
         p = prepare(scene, features_mode=mode, feature_flags={"variance": True})
-        res = p.renderer.render(16, seed=3)
+        res = draw(p.renderer, 16, seed=3)
         images.append((res.image.astype(np.float64), res.variance.astype(np.float64)))
         p.renderer.release()
     (a, va), (b, vb) = images
@@ -74,7 +75,7 @@ def test_every_shipped_scene_compiles_only_what_it_uses(scene_file):
 
     p = prepare(scene_file, resolution=(8, 8), bounces=2)
     try:
-        res = p.renderer.render(1, seed=1)
+        res = draw(p.renderer, 1, seed=1)
         assert res.dropped_samples == 0 and np.isfinite(res.image).all()
         text = Source("pathtrace.frag", p.features.preamble()).text
         used = {t for t in p.world.materials.types}

@@ -16,6 +16,7 @@ from mcpt.scene import SceneError, parse_scene
 from mcpt.shading.texture import load_texture, lookup, pack_textures, srgb_to_linear
 
 from .conftest import ROOT, shared_path
+from .draw import render as draw
 from .test_materials_util import floats, probe, sphere_grid, uniform_numbers
 
 N = 1 << 17
@@ -326,6 +327,6 @@ def test_textured_smooth_scene_renders_through_the_api(gl):
     p = prepare(ROOT / "scenes" / "spot.yaml", resolution=(8, 8), bounces=1)
     try:
         assert {"normals", "uvs", "textures"} <= set(p.renderer.tbos)
-        assert p.renderer.render(1, 0).dropped_samples == 0
+        assert draw(p.renderer, 1, 0).dropped_samples == 0
     finally:
         p.renderer.release()

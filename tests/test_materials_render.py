@@ -12,6 +12,7 @@ from mcpt.shapes.world import load_world
 from mcpt.scene import load_scene, parse_scene
 
 from .conftest import ROOT
+from .draw import render as draw
 from .test_materials_util import renderer
 
 SCENES = ROOT / "scenes"
@@ -23,7 +24,7 @@ def render(gl, scene, spp, seed, *, bounces=None, variance=True, **flags):
     feats = for_world(world, bounces=bounces, variance=variance, **flags)
     r = renderer(gl, world, feats)
     try:
-        return r.render(spp, seed + SEED_OFFSET), feats
+        return draw(r, spp, seed + SEED_OFFSET), feats
     finally:
         r.release()
 

@@ -10,6 +10,7 @@ from mcpt.output.image import read_exr
 from mcpt.scene import load_scene
 
 from .conftest import ROOT, shared_path
+from .draw import render as draw
 
 FURNACE = ROOT / "scenes" / "furnace.yaml"
 CORNELL = ROOT / "scenes" / "cornell-box.yaml"
@@ -30,7 +31,7 @@ def test_white_furnace_matches_the_analytic_value(bounces, sampler):
     size = (32, 32) if bounces == 8 else (64, 64)
     p = prepare(FURNACE, bounces=bounces, resolution=size, feature_flags={"variance": True},
                 sampler=sampler)
-    res = p.renderer.render(128 if bounces else 2, seed=11 + bounces)
+    res = draw(p.renderer, 128 if bounces else 2, seed=11 + bounces)
     p.renderer.release()
     expected = furnace_expected(bounces)
     img, var = res.image.astype(np.float64), res.variance.astype(np.float64)
@@ -57,7 +58,7 @@ def test_cornell_box_agrees_with_mitsuba_and_converges_as_one_over_spp(sampler):
     p = prepare(CORNELL, sampler=sampler)
     spps, rel = [8, 32, 128], []
     for spp in spps:
-        img = p.renderer.render(spp, seed=spp).image.astype(np.float64)
+        img = draw(p.renderer, spp, seed=spp).image.astype(np.float64)
         rel.append(np.mean((img - ref) ** 2 / (ref**2 + 0.01)))
     p.renderer.release()
     slope = np.polyfit(np.log(spps), np.log(rel), 1)[0]
@@ -76,9 +77,9 @@ def test_cornell_box_agrees_with_mitsuba_and_converges_as_one_over_spp(sampler):
 def test_same_seed_same_image_different_seed_different_image(sampler):
     scene = load_scene(CORNELL).with_overrides(resolution=(48, 48))
     p = prepare(scene, sampler=sampler)
-    a = p.renderer.render(4, seed=5).image
-    b = p.renderer.render(4, seed=5).image
-    c = p.renderer.render(4, seed=6).image
+    a = draw(p.renderer, 4, seed=5).image
+    b = draw(p.renderer, 4, seed=5).image
+    c = draw(p.renderer, 4, seed=6).image
     p.renderer.release()
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
@@ -130,7 +131,7 @@ def test_emission_that_overflows_the_sums_never_reaches_the_image(tmp_path):
         "meshes: [{file: floor.obj, material: glow}]\n")
     p = prepare(tmp_path / "s.yaml")
     try:
-        r = p.renderer.render(64, 0)
+        r = draw(p.renderer, 64, 0)
     finally:
         p.renderer.release()
     assert np.isfinite(r.image).all()
@@ -142,10 +143,10 @@ def test_samples_per_draw_do_not_change_the_image():
     first + j: the same samples as one per draw, so the same image up to float32 summation."""
     p = prepare(CORNELL, resolution=(32, 32), feature_flags={"variance": True})
     try:
-        one = p.renderer.render(8, seed=3, samples_per_draw=1)
-        four = p.renderer.render(8, seed=3, samples_per_draw=4)
-        three = p.renderer.render(8, seed=3, samples_per_draw=3)  # draws of 3, 3 and 2
-        default = p.renderer.render(8, seed=3)  # 32x32: up to 64 a draw, here all 8 in one
+        one = draw(p.renderer, 8, seed=3, samples_per_draw=1)
+        four = draw(p.renderer, 8, seed=3, samples_per_draw=4)
+        three = draw(p.renderer, 8, seed=3, samples_per_draw=3)  # draws of 3, 3 and 2
+        default = draw(p.renderer, 8, seed=3)  # 32x32: up to 64 a draw, here all 8 in one
         assert p.renderer.samples_per_draw == 64
     finally:
         p.renderer.release()
@@ -164,7 +165,7 @@ def test_paths_longer_than_the_loop_limit_are_continued_not_dropped():
     if p.features.loop_limit == 0:  # pragma: no cover - a GPU without a loop limit
         pytest.skip("this driver has no loop limit")
     try:
-        res = p.renderer.render(2, seed=1)
+        res = draw(p.renderer, 2, seed=1)
     finally:
         p.renderer.release()
     expected = (1 - 0.8 ** 3001) / (1 - 0.8)  # = 5

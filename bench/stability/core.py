@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Callable
@@ -130,18 +130,18 @@ def render(env: Env, scene, spp: int, seed: int = 1, *, max_random_per_tile: int
     """(RenderResult, Prepared) with per-pixel variance; the renderer is released. ``flags``:
     features by name (mcpt/gpu/features.py derive: e.g. the switches sampling="nee",
     russian_roulette=False)."""
-    from mcpt.api import prepare
+    from mcpt.api import Options, prepare, run
     from mcpt.gpu.render import Renderer
 
     p = prepare(scene, gl_backend=env.gl_backend, feature_flags={"variance": True, **flags})
-    renderer = p.renderer
     try:
         if max_random_per_tile is not None:
-            renderer.release()
-            renderer = Renderer(p.gl, p.features, pack(p.world, p.features), max_random_per_tile=max_random_per_tile)
-        result = renderer.render(spp, seed, chunk=chunk)
+            p.renderer.release()
+            p = replace(p, renderer=Renderer(p.gl, p.features, pack(p.world, p.features),
+                                             max_random_per_tile=max_random_per_tile))
+        result = run(p, Options(spp=spp, seed=seed, chunk=chunk)).result
     finally:
-        renderer.release()
+        p.renderer.release()
     return result, p
 
 

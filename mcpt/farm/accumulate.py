@@ -21,16 +21,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-CHUNK = 64  # passes per read-back (Renderer.render's default)
+CHUNK = 64  # passes per read-back (Renderer.passes' default)
 
 
 @dataclass
 class Accumulator:
-    """Sums of passes ``0 .. done-1`` of one seed: ``complete`` (float64, whole chunks, added in
-    order) and ``partial`` (float32 target of the unfinished chunk, or None)."""
+    """Sums of passes ``0 .. spp-1`` of one seed: ``complete`` (float64, whole chunks, added in
+    order) and ``partial`` (float32 target of the unfinished chunk, or None). ``spp``: the samples
+    per pixel summed so far (the render's ``RenderResult.spp`` once it ends)."""
 
     complete: np.ndarray
-    done: int = 0
+    spp: int = 0
     partial: np.ndarray | None = None
     chunk: int = CHUNK
 
@@ -41,7 +42,7 @@ class Accumulator:
     @property
     def whole(self) -> int:
         """Passes in ``complete`` (a multiple of ``chunk``)."""
-        return self.done - (self.done % self.chunk)
+        return self.spp - (self.spp % self.chunk)
 
     def rewind_to_draw_grid(self, samples_per_draw: int) -> None:
         """Before carrying on from a checkpoint whose last draw ended off the draw grid (a finished
@@ -49,35 +50,25 @@ class Accumulator:
         forget the unfinished chunk and draw it again, so the longer render makes the draws, and
         the sums, of an uninterrupted one (mcpt/gpu/render.py). Costs fewer than ``chunk`` passes.
         A stop on the grid (a time budget or a signal stops after a draw) keeps its ``partial``."""
-        if self.partial is not None and self.done % samples_per_draw:
+        if self.partial is not None and self.spp % samples_per_draw:
             self.partial = None
-            self.done = self.whole
+            self.spp = self.whole
 
-    def add(self, done: int, sums: np.ndarray) -> None:
-        """One read-back of ``Renderer.passes`` covering the passes up to ``done``."""
-        if done <= self.done:
-            raise ValueError(f"read-back at pass {done} after pass {self.done}")
+    def add(self, spp: int, sums: np.ndarray) -> None:
+        """One read-back of ``Renderer.passes``: the passes up to ``spp`` summed."""
+        if spp <= self.spp:
+            raise ValueError(f"read-back at pass {spp} after pass {self.spp}")
         if self.partial is not None:
             # Renderer.passes continued from ``partial`` (carry), so ``sums`` already holds it.
             self.partial = None
-        if done % self.chunk == 0:
+        if spp % self.chunk == 0:
             self.complete += sums
         else:
             self.partial = np.array(sums, np.float32)
-        self.done = done
-
-    def add_chunk(self, first: int, sums: np.ndarray, rows: slice = slice(None)) -> None:
-        """A whole chunk starting at pass ``first`` (farm tasks), in order; ``rows``: its tile."""
-        if first != self.done or self.partial is not None:
-            raise ValueError(f"chunk at pass {first} added after pass {self.done}")
-        self.complete[:, rows] += sums
-        # Tiles of one chunk arrive one by one: the caller advances ``done`` (advance()).
-
-    def advance(self, done: int) -> None:
-        self.done = done
+        self.spp = spp
 
     def totals(self) -> np.ndarray:
-        """float64 sums of all ``done`` passes: ``complete`` plus the unfinished chunk."""
+        """float64 sums of all ``spp`` passes: ``complete`` plus the unfinished chunk."""
         if self.partial is None:
             return self.complete.copy()
         return self.complete + self.partial

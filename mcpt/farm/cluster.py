@@ -19,7 +19,6 @@ import os
 
 import numpy as np
 
-from ..output.layers import computed as computed_aovs
 from .accumulate import CHUNK
 from .worker import FarmError, job_id, render_chunks
 
@@ -47,18 +46,19 @@ def local_cluster(n: int, lp_threads: int | None = None):
                         silence_logs=40, env={"LP_NUM_THREADS": str(lp_threads)})
 
 
-def job_for(p, opts) -> dict:
+def job_for(p) -> dict:
+    """What a worker needs to prepare the very program of ``p`` (mcpt/prepare.py Prepared)."""
     src = p.scene.source_path
     if src is None:
         raise FarmError("--workers needs a scene file (workers read it from its path)")
     from .state import scene_hash
 
     cam = p.scene.camera
-    return {"scene": str(src.resolve()), "overrides": list(opts.overrides),
+    return {"scene": str(src.resolve()), "overrides": list(p.overrides),
             "bounces": p.scene.render.bounces, "seed": p.scene.render.seed,
-            "resolution": [cam.width, cam.height], "gl_backend": opts.gl_backend,
-            "features_mode": opts.features_mode, "clamp": opts.clamp, "sampler": p.features.sampler,
-            "aovs": list(computed_aovs(opts.aovs, opts.denoise)),
+            "resolution": [cam.width, cam.height], "gl_backend": p.gl_backend,
+            "features_mode": p.features_mode, "clamp": p.clamp, "sampler": p.features.sampler,
+            "aovs": list(p.aovs),
             "scene_hash": scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles],
             "samples_per_draw": p.renderer.samples_per_draw}
 
@@ -73,14 +73,18 @@ def ranges(start: int, stop: int, chunk: int = CHUNK) -> list[tuple[int, int]]:
     return out
 
 
-def render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing, client=None):
-    """Draw passes ``acc.done .. spp-1`` on Dask workers into ``acc`` (see the module docstring)."""
-    from distributed import Client
-
+def render_on_cluster(p, opts, acc, control, save_checkpoint) -> dict:
+    """Draw passes ``acc.spp .. spp-1`` of ``p`` on Dask workers into ``acc`` (see the module
+    docstring): on ``opts.client``, else on ``opts.scheduler``, else on a LocalCluster of
+    ``opts.workers``. Returns cluster_seconds, workers and tasks."""
     import time
 
+    from distributed import Client
+
+    client = opts.client
     own = client is None
     cluster = None
+    timing = {}
     t0 = time.perf_counter()
     if own:
         if opts.scheduler:
@@ -95,27 +99,29 @@ def render_on_cluster(p, opts, acc, spp, seed, control, save_checkpoint, timing,
     timing["cluster_seconds"] = time.perf_counter() - t0
     timing["workers"] = len(client.scheduler_info()["workers"])
     try:
-        timing["tasks"] = _run(client, p, opts, acc, spp, seed, control, save_checkpoint)
+        timing["tasks"] = _run(client, p, acc, control, save_checkpoint)
     finally:
         if own:
             client.close()
             if cluster is not None:
                 cluster.close()
+    return timing
 
 
-def _run(client, p, opts, acc, spp, seed, control, save_checkpoint):
+def _run(client, p, acc, control, save_checkpoint):
     from distributed import as_completed
 
     r = p.renderer
-    job = job_for(p, opts)
+    spp, seed = p.scene.render.spp, p.scene.render.seed
+    job = job_for(p)
     jid = job_id(job)
     tiles = r.tiles
-    todo = ranges(acc.done, spp, acc.chunk)
+    todo = ranges(acc.spp, spp, acc.chunk)
     futures = {}
     for first, stop in todo:
         for ti, (x0, y0, w, h) in enumerate(tiles):
             carry = None
-            if first == acc.done and acc.partial is not None:
+            if first == acc.spp and acc.partial is not None:
                 carry = np.ascontiguousarray(acc.partial[:, y0:y0 + h])
             key = f"mcpt-{jid}-s{seed}-t{ti}-p{first}-{stop}"
             fut = client.submit(render_chunks, job, ti, first, stop, carry, acc.chunk, key=key,
@@ -131,13 +137,13 @@ def _run(client, p, opts, acc, spp, seed, control, save_checkpoint):
             while todo and len(arrived.get(todo[0][0], {})) == len(tiles):
                 a, b = todo.pop(0)
                 parts = arrived.pop(a)
-                reads = [done for done, _ in parts[0]]
-                for i, done in enumerate(reads):
+                reads = [summed for summed, _ in parts[0]]
+                for i, summed in enumerate(reads):
                     sums = np.zeros((len(r.targets), r.height, r.width, 4), np.float32)
                     for tj, (x0, y0, w, h) in enumerate(tiles):
                         sums[:, y0:y0 + h] = parts[tj][i][1]
-                    acc.add(done, sums)
-                action = control.tick(acc.done, b - a)
+                    acc.add(summed, sums)
+                action = control.tick(acc.spp, b - a)
                 if action == "checkpoint":
                     save_checkpoint()
                 elif action == "stop":

@@ -9,7 +9,7 @@ passes each holds::
 Exactly that, pixel for pixel (a pixel whose non-finite samples were dropped weighs by its spp all
 the same: the error is at most dropped/spp of that pixel). The inputs must agree on everything
 but the seed and the spp (scene hash, resolution, bounces, compile options): the EXR headers carry
-them as ``mcpt:*`` keys (mcpt/farm/session.py). Two renders with the same seed share their passes
+them as ``mcpt:*`` keys (mcpt/output/metadata.py). Two renders with the same seed share their passes
 (every render starts at pass 0 unless ``--first-pass`` says otherwise), so renders whose pass ranges
 of one seed overlap are refused: their mean would count the same paths twice. Disjoint ranges of
 one seed (``--first-pass 0..N``, ``N..M``) merge into the image of passes 0..M, up to float32

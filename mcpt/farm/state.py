@@ -29,6 +29,10 @@ class StateError(McptError, ValueError):
     """A state file that is missing, unreadable, or from another scene or setting."""
 
 
+class ResumeError(StateError):
+    """A checkpoint that cannot be carried on by this render (another scene, setting or spp)."""
+
+
 def _digest(path: Path, cache: dict) -> str:
     if path not in cache:
         h = hashlib.sha256()
@@ -102,7 +106,8 @@ def save(path: str | Path, acc: Accumulator, record: dict) -> None:
     folder = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     os.close(fd)
-    meta = {"format": FORMAT, "done": acc.done, "chunk": acc.chunk, **record}
+    # "done": the samples per pixel summed (Accumulator.spp), under the name format 1 gave it.
+    meta = {"format": FORMAT, "done": acc.spp, "chunk": acc.chunk, **record}
     arrays = {"complete": acc.complete, "meta": np.frombuffer(json.dumps(meta).encode(), np.uint8)}
     if acc.partial is not None:
         arrays["partial"] = acc.partial
@@ -136,3 +141,25 @@ def load(path: str | Path) -> tuple[Accumulator, dict]:
         raise StateError(f"{path}: checkpoint format {meta.get('format')} is not {FORMAT}")
     acc = Accumulator(complete, int(meta["done"]), partial, int(meta["chunk"]))
     return acc, meta
+
+
+def resume(path: str | Path, record: dict, targets: int, spp: int,
+           samples_per_draw: int) -> Accumulator:
+    """The checkpoint at ``path``, checked against this render (``record``: its settings(),
+    ``targets``: its accumulation targets, ``spp``: the samples per pixel asked for) and put back
+    on the draw grid (Accumulator.rewind_to_draw_grid); :class:`ResumeError` names a difference."""
+    acc, found = load(path)
+    # aov_targets is recorded only when there are some: compare it both ways.
+    both = [{"aov_targets": d.get("aov_targets", "none")} for d in (record, found)]
+    why = mismatch(record, found) or mismatch(*both)
+    if why:
+        raise ResumeError(f"{path}: cannot resume: {why}")
+    if acc.complete.shape[0] != targets:  # a checkpoint from before AOVs were recorded
+        raise ResumeError(f"{path}: cannot resume: it holds {acc.complete.shape[0]} "
+                          f"accumulation targets, this render {targets} (other --aov)")
+    if acc.spp > spp:
+        raise ResumeError(f"{path}: cannot resume: the checkpoint has {acc.spp} passes, "
+                          f"more than the {spp} asked for")
+    if acc.spp < spp:
+        acc.rewind_to_draw_grid(samples_per_draw)
+    return acc

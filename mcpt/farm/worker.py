@@ -36,23 +36,21 @@ def job_id(job: dict) -> str:
 def _prepared(job: dict):
     key = job_id(job)
     if key not in _PREPARED:
-        from ..api import prepare
-        from ..scene import load_scene
-        from .state import settings
+        from ..prepare import prepare  # the set-up of a render, not the coordinator's loop
+        from .state import scene_hash
 
         for old in list(_PREPARED.values()):  # one render at a time per worker: free the last one
             old.renderer.release()
         _PREPARED.clear()
-        scene = load_scene(job["scene"], overrides=tuple(job["overrides"]))
-        p = prepare(scene, bounces=job["bounces"], seed=job["seed"], resolution=job["resolution"],
-                    gl_backend=job["gl_backend"], features_mode=job["features_mode"],
-                    clamp=job["clamp"], sampler=job["sampler"], aovs=tuple(job.get("aovs", ())))
-        found = settings(p.scene, features_mode=job["features_mode"], clamp=job["clamp"],
-                         sampler=p.features.sampler)
-        if found["scene_hash"] != job["scene_hash"]:
+        p = prepare(job["scene"], overrides=tuple(job["overrides"]), bounces=job["bounces"],
+                    seed=job["seed"], resolution=job["resolution"], gl_backend=job["gl_backend"],
+                    features_mode=job["features_mode"], clamp=job["clamp"], sampler=job["sampler"],
+                    aovs=tuple(job.get("aovs", ())))
+        found = scene_hash(p.scene)
+        if found != job["scene_hash"]:
             raise FarmError(f"{job['scene']} on this worker is not the scene being rendered "
-                               f"(hash {found['scene_hash']}, expected {job['scene_hash']}); "
-                               "workers need the same scene files at the same path")
+                            f"(hash {found}, expected {job['scene_hash']}); "
+                            "workers need the same scene files at the same path")
         if [list(t) for t in p.renderer.tiles] != [list(t) for t in job["tiles"]]:
             raise FarmError("this worker's GL limits split the image into other tiles")
         if p.renderer.samples_per_draw != job["samples_per_draw"]:
@@ -71,13 +69,13 @@ def _render(job, tile, first, stop, carry, chunk):
         full_carry = np.zeros((len(r.targets), r.height, r.width, 4), np.float32)
         full_carry[:, y0:y0 + h] = carry
     out = []
-    for done, sums in r.passes(job["seed"], first, stop, chunk=chunk, carry=full_carry,
-                               tiles=[tile]):
-        out.append((done, np.ascontiguousarray(sums[:, y0:y0 + h])))
+    for summed, sums in r.passes(job["seed"], first, stop, chunk=chunk, carry=full_carry,
+                                 tiles=[tile]):
+        out.append((summed, np.ascontiguousarray(sums[:, y0:y0 + h])))
     return out
 
 
 def render_chunks(job: dict, tile: int, first: int, stop: int, carry=None, chunk: int = 64):
-    """Passes ``first .. stop-1`` of tile ``tile``: a list of ``(passes_done, rows)`` read-backs,
+    """Passes ``first .. stop-1`` of tile ``tile``: a list of ``(passes summed, rows)`` read-backs,
     ``rows`` float32 (targets, tile height, width, 4), at the same passes as one process reads."""
     return _GL_THREAD.submit(_render, job, tile, first, stop, carry, chunk).result()

@@ -36,7 +36,7 @@ from ..shading.sobol import seed32
 from . import aov as aov_mod
 from . import shader
 from .context import GLContext
-from .features import MAX_SAMPLES_PER_DRAW, Features, samples_per_draw
+from .features import Features, samples_per_draw
 from .pack import Packed
 from .path_state import PathState
 from .tbo import GL_R32F, create_tbo
@@ -51,7 +51,7 @@ MAX_RANDOM_PER_TILE = 1 << 26
 
 
 class RenderError(McptError, RuntimeError):
-    """The render cannot be done as asked (image too large for the driver or memory, spp < 1)."""
+    """The render cannot be done as asked (image too large for the driver or memory)."""
 
 
 @dataclass
@@ -191,35 +191,16 @@ class Renderer:
         if name in self.program:  # the specialised program may have compiled a uniform away
             self.program[name].value = value
 
-    def render(self, spp: int, seed: int, *, progress=None, chunk: int = 64,
-               samples_per_draw: int | None = None) -> RenderResult:
-        """Render ``spp`` passes with random numbers from ``seed``; ``progress(done, total)``.
-        ``samples_per_draw`` overrides the path-regeneration width for this render (sobol; at most
-        features.MAX_SAMPLES_PER_DRAW, which the loop-limit bound assumes)."""
-        if spp < 1:
-            raise RenderError(f"spp must be >= 1, got {spp}")
-        if samples_per_draw is not None and not self.features.uploads_random:
-            keep, self.samples_per_draw = self.samples_per_draw, min(max(1, int(samples_per_draw)), MAX_SAMPLES_PER_DRAW)
-            try:
-                return self.render(spp, seed, progress=progress, chunk=chunk)
-            finally:
-                self.samples_per_draw = keep
-        total = np.zeros((len(self.targets), self.height, self.width, 4), np.float64)
-        t0 = time.perf_counter()
-        for done, sums in self.passes(seed, 0, spp, chunk=chunk):
-            total += sums
-            if progress is not None:
-                progress(done, spp)
-        return self.result(total, spp, seed, time.perf_counter() - t0, self.random_seconds)
-
     def passes(self, seed: int, start: int, stop: int, *, chunk: int = 64, carry=None,
                interrupt=None, tiles=None):
-        """Draw passes ``start .. stop-1`` of ``seed``; a generator of ``(passes_done, sums)``.
+        """Draw passes ``start .. stop-1`` of ``seed``; a generator of ``(spp, sums)``: passes
+        ``0 .. spp-1`` are drawn (those before ``start`` by an earlier call, or in ``carry``).
 
         ``sums`` is the float32 target read back (and cleared), shape (targets, H, W, 4), yielded at
         every multiple of ``chunk`` (counted from pass 0, not from ``start``), at ``stop``, and
-        after a draw where ``interrupt(passes_done)`` is true (then the generator ends; a draw
-        holds up to ``samples_per_draw`` passes). Because read-backs
+        after a draw where ``interrupt(spp)`` is true (then the generator ends; a draw
+        holds up to ``samples_per_draw`` passes). The render loop (mcpt/render.py) adds them
+        into an Accumulator and makes the result (:meth:`result`). Because read-backs
         fall on the same passes wherever a render starts, stops or resumes, every way of adding
         them up in pass order (one render, a resumed one, tasks of a farm) adds the same numbers
         (mcpt/farm/accumulate.py). ``carry``: the target of an unfinished chunk to continue from;

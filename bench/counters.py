@@ -6,11 +6,16 @@ glsl/bvh.glsl's traversal into a shader storage buffer with atomics. :func:`meas
 few passes with it and returns the averages per ray: the currency of speed on llvmpipe, where
 every loop iteration pays for its whole body (issue #14). Counts do not depend on timing, so
 two trees or two traversals compare exactly.
+
+A measuring tool, not part of rendering: ``mcpt info --counters`` (cli/info.py) and the benchmarks
+call it; the library (mcpt/) never imports it.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from mcpt.api import Options, prepare, run
 
 #: Order of the uints in glsl/bvh.glsl's BvhCounters block.
 FIELDS = ("rays", "iterations", "fetches", "node_steps", "triangle_tests", "shadow_rays")
@@ -25,8 +30,6 @@ def measure(scene, *, spp: int = 1, seed: int = 0, **prepare_kwargs) -> dict:
     Returns rays traced (closest and shadow) and per ray: iterations, node_steps,
     triangle_tests, fetches (texel fetches of the traversal only, not of shading).
     """
-    from ..api import prepare
-
     flags = {**prepare_kwargs.pop("feature_flags", {}), "counters": True}
     p = prepare(scene, feature_flags=flags, **prepare_kwargs)
     try:
@@ -34,7 +37,7 @@ def measure(scene, *, spp: int = 1, seed: int = 0, **prepare_kwargs) -> dict:
         buf.bind_to_storage_buffer(BINDING)
         totals = np.zeros(len(FIELDS), np.float64)
         for i in range(spp):  # one pass at a time: 32-bit counters stay far from overflow
-            p.renderer.render(1, seed + i)
+            run(p, Options(spp=1, seed=seed + i))
             totals += np.frombuffer(buf.read(), np.uint32)
             buf.write(np.zeros(len(FIELDS), np.uint32).tobytes())
         buf.release()

@@ -1,0 +1,66 @@
+"""From a scene file to a compiled program with the scene uploaded: everything before the passes.
+
+    read      mcpt.scene.load_scene            YAML -> validated Scene (+ -D and command-line overrides)
+    build     mcpt.shapes.world.load_world     meshes, materials, BVH, lights -> World
+    derive    mcpt.gpu.features.for_world      what the world needs -> Features (the define set)
+    pack      mcpt.gpu.pack.pack               World + Features -> buffers and uniforms
+    compile   mcpt.gpu.render.Renderer         limits checked, program compiled, buffers uploaded
+
+The render loop (mcpt/render.py) calls :func:`prepare` once per render, a farm worker
+(mcpt/farm/worker.py) once per job; ``mcpt info`` (mcpt.api.describe) reports what it made.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .gpu.context import GLContext, shared_context
+from .gpu.features import Features, for_world, loop_limit_for
+from .gpu.pack import pack
+from .gpu.render import Renderer
+from .output.layers import feature_flags as aov_flags
+from .scene import Scene, load_scene
+from .shapes.world import World, load_world
+
+
+@dataclass
+class Prepared:
+    """A scene ready for passes, and the settings it was prepared with (what a checkpoint records
+    and what a farm worker needs to prepare the same program)."""
+
+    gl: GLContext
+    scene: Scene                  # overrides applied: scene.render.spp / seed are the render's
+    world: World
+    features: Features
+    renderer: Renderer
+    setup_seconds: float
+    features_mode: str = "scene"
+    clamp: float | None = None
+    aovs: tuple = ()              # the AOVs computed (mcpt/output/layers.py computed)
+    overrides: tuple = ()         # -D KEY=VALUE applied when the scene file was read
+    gl_backend: str | None = None  # as asked (None: $MCPT_GL_BACKEND or auto); gl.backend: the one used
+
+
+def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
+            gl_backend=None, features_mode: str = "scene", clamp: float | None = None,
+            feature_flags: dict | None = None, sampler: str | None = None, aovs=(),
+            overrides=()) -> Prepared:
+    """``aovs``: the AOVs to compute (mcpt/gpu/aov.py; for --denoise include albedo and normal);
+    ``overrides``: ``-D KEY=VALUE`` strings, applied when ``scene`` is a file to read."""
+    t0 = time.perf_counter()
+    if not isinstance(scene, Scene):
+        scene = load_scene(scene, overrides=tuple(overrides))
+    scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
+    gl = shared_context(gl_backend)
+    world = load_world(scene)
+    flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
+    if sampler is not None:
+        flags["sampler"] = sampler
+    feats = for_world(world, clamp=clamp is not None, **flags)
+    if features_mode == "all":
+        feats = feats.everything()
+    renderer = Renderer(gl, feats, pack(world, feats), clamp=clamp)
+    return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0, features_mode,
+                    clamp, tuple(aovs), tuple(overrides), gl_backend)
