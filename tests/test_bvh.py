@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,17 +15,11 @@ from mcpt.shapes.mesh import load_mesh
 from .merge import merge_meshes
 from .oracles import brute_force_closest_hit, bvh_closest_hit
 
-from .conftest import bunny_reference
-
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-BUNNY = SHARED / "models" / "stanford-bunny.obj"
-CORNELL = SHARED / "scenes-ref" / "cornell"
+from .conftest import BUNNY, CORNELL, bunny_reference
 
 
 @pytest.fixture(scope="module")
 def bunny_tris() -> np.ndarray:
-    if not BUNNY.is_file():
-        pytest.skip(f"{BUNNY} not available")
     return load_mesh(BUNNY).triangles()
 
 
@@ -217,8 +210,6 @@ def test_closest_hit_matches_brute_force_bunny():
 
 def test_closest_hit_flat_boxes_cornell():
     # Axis-aligned walls have zero-thickness boxes: the slab test must not lose their hits.
-    if not CORNELL.is_dir():
-        pytest.skip(f"{CORNELL} not available")
     meshes = [load_mesh(p) for p in sorted(CORNELL.glob("*.obj"))]
     tris = merge_meshes([(m, None) for m in meshes]).triangles()
     bvh = build_bvh(tris, max_leaf=1)

@@ -9,10 +9,9 @@ from mcpt.shapes.bvh import GPU_COUNT_SHIFT, SAH_STEP_COST, SAH_TRI_COST
 from mcpt.shapes.bvh_build import build_bvh
 from mcpt.shapes.mesh import load_mesh
 
+from .conftest import BUNNY, CORNELL, ROOT
 from .merge import merge_meshes
 from .oracles import brute_force_closest_hit, bvh_closest_hit
-
-from .conftest import ROOT, shared_path
 from .test_bvh import check_invariants, random_triangles
 
 
@@ -21,8 +20,8 @@ def _meshes():
     stretched = random_triangles(rng, 3000)
     stretched[:, :, 1] *= 10.0
     slivers = rng.random((2000, 1, 3)) + np.array([[0, 0, 0], [0.3, 0, 0], [0, 0.001, 0]])
-    bunny = load_mesh(shared_path("models", "stanford-bunny.obj")).triangles()
-    cornell = merge_meshes([(load_mesh(p), None) for p in sorted(shared_path("scenes-ref", "cornell").glob("*.obj"))])
+    bunny = load_mesh(BUNNY).triangles()
+    cornell = merge_meshes([(load_mesh(p), None) for p in sorted(CORNELL.glob("*.obj"))])
     box_and_bunny = np.concatenate([cornell.triangles(), bunny * 7.0])
     return {"random": random_triangles(rng, 5000), "stretched": stretched, "slivers": slivers,
             "bunny": bunny, "cornell+bunny": box_and_bunny}
