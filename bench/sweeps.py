@@ -91,8 +91,8 @@ class Session:
 
 def _open(path, cfg: Config, *, resolution, bounces=None, features_mode="scene", flags=None,
           clear_shader_cache=False) -> Session:
-    from mcpt.gpu import shader
     from mcpt.api import prepare
+    from mcpt.gpu import shader
 
     if clear_shader_cache:
         shader.clear_cache()  # so compile_seconds is a real compile, not a cache hit

@@ -46,7 +46,6 @@ def bunny_reference():
     """Bunny triangles, its BVH, 10^4 rays (float32-representable) and the brute-force closest
     hits, computed once per session: the brute force costs ~10 s and two test files share it."""
     from mcpt.shapes.bvh_build import build_bvh
-
     from mcpt.shapes.mesh import load_mesh
 
     from .oracles import brute_force_closest_hit

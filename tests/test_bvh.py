@@ -12,10 +12,9 @@ from mcpt.shapes.bvh import LEAF_FLAG, MAX_STACK
 from mcpt.shapes.bvh_build import build_bvh
 from mcpt.shapes.mesh import load_mesh
 
+from .conftest import BUNNY, CORNELL, bunny_reference
 from .merge import merge_meshes
 from .oracles import brute_force_closest_hit, bvh_closest_hit
-
-from .conftest import BUNNY, CORNELL, bunny_reference
 
 
 @pytest.fixture(scope="module")
@@ -228,7 +227,8 @@ def test_closest_hit_flat_boxes_cornell():
 
 
 def test_brute_force_basic():
-    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, 1.0, 2.0]]])
+    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                    [[0.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, 1.0, 2.0]]])
     o = np.array([[0.2, 0.2, 5.0], [0.2, 0.2, 1.0], [0.9, 0.9, 5.0], [0.2, 0.2, -1.0]])
     d = np.array([[0.0, 0.0, -2.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
     t, i = brute_force_closest_hit(tri, o, d)

@@ -107,9 +107,8 @@ def test_gpu_buffer_references_every_triangle_once():
 
 def test_counters_are_compiled_out_by_default_and_add_up(gl):
     from mcpt.gpu.counters import measure
-    from mcpt.gpu.shader import Source
-
     from mcpt.gpu.features import Features
+    from mcpt.gpu.shader import Source
     plain = Source("pathtrace.frag", Features(bounces=2).preamble()).text
     assert "atomicAdd" not in plain
     m = measure(ROOT / "scenes" / "bunny-metal.yaml", resolution=(32, 32), bounces=2)
@@ -117,9 +116,9 @@ def test_counters_are_compiled_out_by_default_and_add_up(gl):
     # One loop iteration is one node step or one triangle test, each reading four texels; the
     # large triangles tested written out before the traversal (glsl/bvh.glsl trace_const) add
     # their tests and one fetch per distinct vertex to every ray, and no iterations.
+    from mcpt.gpu.features import for_world
     from mcpt.scene import load_scene
     from mcpt.shapes.world import load_world
-    from mcpt.gpu.features import for_world
     d = for_world(load_world(load_scene(ROOT / "scenes" / "bunny-metal.yaml")), bounces=2).defines()
     tail, tail_fetches = d["MCPT_TRI_CONST"], d["MCPT_VERT_COUNT"]
     assert tail > 0 and 0 < tail_fetches <= 3 * tail  # the bunny sits in a box of large triangles
@@ -151,8 +150,8 @@ def test_dense_trees_are_detected_even_inside_a_larger_scene():
 
 
 def test_dense_traversal_agrees_with_the_default_one(gl):
-    from mcpt.shapes.geometry import pack_triangles
     from mcpt.bench.probe import run_probe
+    from mcpt.shapes.geometry import pack_triangles
 
     tris = MESHES["cornell+bunny"].astype(np.float32)
     bvh = build_bvh(tris)

@@ -5,15 +5,15 @@ test_materials_render.py; chi-square tests of the sampling routines in test_samp
 import math
 
 import numpy as np
-from mcpt.gpu.features import for_world
-from mcpt.gpu.pack import pack
 import pytest
 
-from mcpt.shading.normals import octahedral_decode, octahedral_encode, pack_normals
-from mcpt.shapes.world import load_world
-from mcpt.shading.materials import fdr_internal, fresnel_diffuse_reflectance
+from mcpt.gpu.features import for_world
+from mcpt.gpu.pack import pack
 from mcpt.scene import SceneError, parse_scene
+from mcpt.shading.materials import fdr_internal, fresnel_diffuse_reflectance
+from mcpt.shading.normals import octahedral_decode, octahedral_encode, pack_normals
 from mcpt.shading.texture import load_texture, lookup, pack_textures, srgb_to_linear
+from mcpt.shapes.world import load_world
 
 from .conftest import ROOT, SPOT, SPOT_TEXTURE
 from .test_materials_util import floats, probe, sphere_grid, uniform_numbers

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from mcpt.shading import sobol
-from mcpt.gpu.context import shared_context
 from mcpt.bench.probe import run_probe
+from mcpt.gpu.context import shared_context
+from mcpt.shading import sobol
 
 from .test_materials_util import chi2_test
 
