@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 SCENE ?= scenes/cornell-box.yaml
 
-.PHONY: all setup system-deps render test test-osmesa bench bench-farm stability goldens wheel clean \
+.PHONY: all setup system-deps render lint test test-osmesa bench bench-farm stability goldens wheel clean \
         peer peer-setup peer-system-deps
 
 all: test
@@ -20,11 +20,10 @@ system-deps:
 	    libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libosmesa6 >/dev/null; \
 	fi
 
-$(STAMP): pyproject.toml | system-deps
+$(STAMP): pyproject.toml setup.py | system-deps
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	# PYTHONWARNINGS: setuptools' notes on editable installs of mapped packages are not for users.
-	PYTHONWARNINGS=ignore $(PY) -m pip install -q -e '.[dev]'
+	$(PY) -m pip install -q -e '.[dev]'
 	touch $(STAMP)
 
 setup: system-deps $(STAMP)
@@ -33,7 +32,11 @@ render: setup
 	mkdir -p out
 	$(VENV)/bin/mcpt render $(SCENE) --spp 256 -o out/cornell-box.png -o out/cornell-box.exr
 
-test: setup
+# ruff (pyproject.toml [tool.ruff]) first: CI runs `make test`, so a lint finding fails CI too.
+lint: setup
+	$(VENV)/bin/ruff check .
+
+test: setup lint
 	$(PY) -m pytest -q
 
 test-osmesa: setup

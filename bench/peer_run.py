@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from . import common, mitsuba, scenes
-from .scenes import ref_scene_yaml
 from .peer import report_lines, summarize, summary_lines
+from .scenes import ref_scene_yaml
 
 PEER_SCENES = ("cornell", "cornell-sphere-100k")
 

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import yaml
 
-from . import meshes
-
 from mcpt.scene.shipped import shipped
+
+from . import meshes
 
 CORNELL_YAML = shipped("cornell-box.yaml")
 CORNELL_DIR = shipped("cornell")

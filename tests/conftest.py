@@ -3,11 +3,22 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED = ROOT.parent / "shared"
+# Everything the tests read is in the repository (tests/data/README.md says what and from where).
+DATA = ROOT / "tests" / "data"
+MODELS = ROOT / "scenes" / "models"
+BUNNY = MODELS / "stanford-bunny.obj"
+SPOT = MODELS / "spot" / "spot_triangulated.obj"
+SPOT_TEXTURE = MODELS / "spot" / "spot_texture.png"
+SUZANNE = DATA / "models" / "suzanne.obj"
+CORNELL = ROOT / "scenes" / "cornell"             # the shipped Cornell box meshes
+CORNELL_REF = DATA / "scenes-ref" / "cornell"   # scene.json, the OBJs, Mitsuba's reference.exr
+FURNACE_REF = DATA / "scenes-ref" / "furnace"   # scene.json with the analytic values
+
+# mcpt.bench reads reference scenes from $MCPT_SHARED: the session's bench runs read tests/data.
+os.environ["MCPT_SHARED"] = str(DATA)
 
 
 @pytest.fixture(scope="session")
@@ -18,11 +29,16 @@ def gl():
     return shared_context(os.environ.get("MCPT_GL_BACKEND"))
 
 
-def shared_path(*parts) -> Path:
-    p = SHARED.joinpath(*parts)
+def data_path(*parts) -> Path:
+    """A file of tests/data (``data_path("scenes-ref", "cornell", "reference.exr")``); missing is
+    an error, never a skip."""
+    p = DATA.joinpath(*parts)
     if not p.exists():
-        pytest.skip(f"shared material missing: {p}")
+        raise FileNotFoundError(f"test data missing: {p}")
     return p
+
+
+shared_path = data_path  # the former name, still imported by tests/test_render.py
 
 
 @lru_cache(maxsize=1)
@@ -30,11 +46,11 @@ def bunny_reference():
     """Bunny triangles, its BVH, 10^4 rays (float32-representable) and the brute-force closest
     hits, computed once per session: the brute force costs ~10 s and two test files share it."""
     from mcpt.shapes.bvh_build import build_bvh
-
-    from .oracles import brute_force_closest_hit
     from mcpt.shapes.mesh import load_mesh
 
-    mesh = load_mesh(shared_path("models", "stanford-bunny.obj"))
+    from .oracles import brute_force_closest_hit
+
+    mesh = load_mesh(BUNNY)
     tris = mesh.vertices[mesh.faces].astype(np.float32).astype(np.float64)
     bvh = build_bvh(tris)
     rng = np.random.default_rng(2024)

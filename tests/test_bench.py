@@ -10,7 +10,7 @@ import pytest
 
 from mcpt.bench import common, mitsuba, peer, peer_run, plots, scenes, suite, sweeps
 
-from .conftest import ROOT, shared_path
+from .conftest import CORNELL_REF, ROOT
 
 # ------------------------------------------------------------------------------------------------
 # Pure parts
@@ -213,7 +213,23 @@ def test_mitsuba_output_parsing_skips_warnings_and_reads_the_rounded_sample_coun
         mitsuba.parse_output("LLVM ERROR: Cannot select")
 
 
-def test_mitsuba_absent_is_reported_not_raised(tmp_path, monkeypatch):
+@pytest.fixture
+def peer_folder(tmp_path, monkeypatch):
+    """A stand-in for the folder the peer bench reads ($MCPT_SHARED): Mitsuba's tool script (never
+    run: the peer python is missing or fake) and a scene folder per peer scene. Every scene is the
+    Cornell reference folder of tests/data: these tests are about how an absent or broken Mitsuba
+    is reported and that mcpt's side still runs on each scene, not about the sphere scene."""
+    root = tmp_path / "peer-shared"
+    (root / "tools").mkdir(parents=True)
+    (root / "tools" / "peer_mitsuba.py").write_text("raise SystemExit('a stand-in: never run')\n")
+    (root / "scenes-ref").mkdir()
+    for name in peer_run.PEER_SCENES:
+        (root / "scenes-ref" / name).symlink_to(CORNELL_REF, target_is_directory=True)
+    monkeypatch.setenv("MCPT_SHARED", str(root))
+    return root
+
+
+def test_mitsuba_absent_is_reported_not_raised(tmp_path, monkeypatch, peer_folder):
     monkeypatch.setenv("MCPT_PEER_PYTHON", str(tmp_path / "no-python"))
     a = mitsuba.available()
     assert not a.ok and "no-python" in a.reason
@@ -222,16 +238,14 @@ def test_mitsuba_absent_is_reported_not_raised(tmp_path, monkeypatch):
 def test_ref_scene_folder_becomes_the_same_mcpt_scene(tmp_path):
     from mcpt.scene import load_scene
 
-    d = shared_path("scenes-ref", "cornell")
-    sc = load_scene(scenes.write(peer_run.ref_scene_yaml(d), tmp_path, "c"))
+    sc = load_scene(scenes.write(peer_run.ref_scene_yaml(CORNELL_REF), tmp_path, "c"))
     ref = load_scene(ROOT / "scenes" / "cornell-box.yaml")
     assert len(sc.meshes) == len(ref.meshes) == 6
     assert sc.render.bounces == ref.render.bounces == 8
     assert sc.camera.vfov_deg == ref.camera.vfov_deg
 
 
-def test_peer_sweep_without_mitsuba_runs_mcpt_and_says_so(gl, tmp_path, monkeypatch):
-    shared_path("scenes-ref", "cornell", "reference.exr")
+def test_peer_sweep_without_mitsuba_runs_mcpt_and_says_so(gl, tmp_path, monkeypatch, peer_folder):
     monkeypatch.setenv("MCPT_PEER_PYTHON", str(tmp_path / "no-python"))
     lines = []
     pc = peer_run.peer_config(True, scenes=("cornell",), resolution=32, spp=(1, 4, 16), rounds=1)
@@ -267,10 +281,9 @@ def test_peer_renders_every_mcpt_sampler_with_that_sampler(monkeypatch, tmp_path
     assert seen == ["sobol", "independent"]
 
 
-def test_peer_sweep_with_a_broken_mitsuba_says_so_once(gl, tmp_path, monkeypatch):
+def test_peer_sweep_with_a_broken_mitsuba_says_so_once(gl, tmp_path, monkeypatch, peer_folder):
     """A Mitsuba that imports but cannot render (llvm_ad_rgb on libLLVM 15 aborts): one line, no
     Mitsuba records, mcpt's side still measured."""
-    shared_path("scenes-ref", "cornell", "reference.exr")
     fake = tmp_path / "fake-python"
     fake.write_text('#!/bin/sh\ncase "$1" in -c) echo 3.9.1;; '
                     '*) echo "LLVM ERROR: Cannot select: fminimum" >&2; exit 134;; esac\n')

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,20 +12,13 @@ from mcpt.shapes.bvh import LEAF_FLAG, MAX_STACK
 from mcpt.shapes.bvh_build import build_bvh
 from mcpt.shapes.mesh import load_mesh
 
+from .conftest import BUNNY, CORNELL, bunny_reference
 from .merge import merge_meshes
 from .oracles import brute_force_closest_hit, bvh_closest_hit
-
-from .conftest import bunny_reference
-
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-BUNNY = SHARED / "models" / "stanford-bunny.obj"
-CORNELL = SHARED / "scenes-ref" / "cornell"
 
 
 @pytest.fixture(scope="module")
 def bunny_tris() -> np.ndarray:
-    if not BUNNY.is_file():
-        pytest.skip(f"{BUNNY} not available")
     return load_mesh(BUNNY).triangles()
 
 
@@ -217,8 +209,6 @@ def test_closest_hit_matches_brute_force_bunny():
 
 def test_closest_hit_flat_boxes_cornell():
     # Axis-aligned walls have zero-thickness boxes: the slab test must not lose their hits.
-    if not CORNELL.is_dir():
-        pytest.skip(f"{CORNELL} not available")
     meshes = [load_mesh(p) for p in sorted(CORNELL.glob("*.obj"))]
     tris = merge_meshes([(m, None) for m in meshes]).triangles()
     bvh = build_bvh(tris, max_leaf=1)
@@ -237,7 +227,8 @@ def test_closest_hit_flat_boxes_cornell():
 
 
 def test_brute_force_basic():
-    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, 1.0, 2.0]]])
+    tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                    [[0.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, 1.0, 2.0]]])
     o = np.array([[0.2, 0.2, 5.0], [0.2, 0.2, 1.0], [0.9, 0.9, 5.0], [0.2, 0.2, -1.0]])
     d = np.array([[0.0, 0.0, -2.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
     t, i = brute_force_closest_hit(tri, o, d)

@@ -2,12 +2,12 @@
 
 import numpy as np
 
+from mcpt.bench.probe import run_probe
 from mcpt.shapes.bvh_build import build_bvh
 from mcpt.shapes.geometry import pack_triangles
 from mcpt.shapes.mesh import load_mesh
-from mcpt.bench.probe import run_probe
 
-from .conftest import bunny_reference, shared_path
+from .conftest import SUZANNE, bunny_reference
 
 
 def _rays(lo, hi, n, rng):
@@ -48,7 +48,7 @@ def test_gpu_traversal_matches_brute_force_on_the_bunny(gl):
 
 
 def test_brute_force_shader_path_agrees_with_bvh_path(gl):
-    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    mesh = load_mesh(SUZANNE)
     tris32 = mesh.vertices[mesh.faces].astype(np.float32)
     bvh = build_bvh(tris32)
     tris32 = tris32[bvh.order]
@@ -83,7 +83,7 @@ def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False):
 def test_shared_vertices_index_the_same_corners():
     from mcpt.shapes.geometry import shared_vertices
 
-    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    mesh = load_mesh(SUZANNE)
     tris = mesh.vertices[mesh.faces[:40]].astype(np.float32)
     addr, ids = shared_vertices(tris)
     corners = tris.reshape(-1, 3)
@@ -97,7 +97,7 @@ def test_written_out_brute_force_agrees_bitwise(gl):
     once-per-ray shear of shared vertices) finds the same hit, bit for bit, as the u_tri_count
     loop, for counts inside, at and past its groups of 4 and 16."""
     from mcpt.gpu.features import TRI_CONST_MAX
-    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    mesh = load_mesh(SUZANNE)
     all_tris = mesh.vertices[mesh.faces].astype(np.float32)
     rng = np.random.default_rng(11)
     for n in (1, 3, 17, 36, TRI_CONST_MAX):
@@ -123,7 +123,7 @@ def test_large_triangles_tested_first_give_the_same_hits(gl):
     from mcpt.gpu.features import vertex_tables
     from mcpt.shapes.geometry import shared_vertices
 
-    mesh = load_mesh(shared_path("models", "suzanne.obj"))
+    mesh = load_mesh(SUZANNE)
     inner = mesh.vertices[mesh.faces].astype(np.float64)
     lo, hi = inner.reshape(-1, 3).min(0) - 0.5, inner.reshape(-1, 3).max(0) + 0.5
     c = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -152,6 +152,6 @@ def test_large_triangles_tested_first_give_the_same_hits(gl):
     tail = run_probe(gl, "probe_trace.frag", probe, n, preamble=pre, key=("bvh-tail", pre),
                      tbos=tbos, uniforms={"u_tri_count": len(tris32)})
     assert (plain[:, 1] > 0).all()
-    assert ((plain[:, 1] - 1 >= first)).mean() > 0.3  # many rays end on the box
+    assert (plain[:, 1] - 1 >= first).mean() > 0.3  # many rays end on the box
     assert np.array_equal(plain[:, 0], tail[:, 0])  # the same distances
     assert (plain == tail).all(axis=1).mean() > 0.999  # the same triangles but on exact ties

@@ -9,10 +9,9 @@ from mcpt.shapes.bvh import GPU_COUNT_SHIFT, SAH_STEP_COST, SAH_TRI_COST
 from mcpt.shapes.bvh_build import build_bvh
 from mcpt.shapes.mesh import load_mesh
 
+from .conftest import BUNNY, CORNELL, ROOT
 from .merge import merge_meshes
 from .oracles import brute_force_closest_hit, bvh_closest_hit
-
-from .conftest import ROOT, shared_path
 from .test_bvh import check_invariants, random_triangles
 
 
@@ -21,8 +20,8 @@ def _meshes():
     stretched = random_triangles(rng, 3000)
     stretched[:, :, 1] *= 10.0
     slivers = rng.random((2000, 1, 3)) + np.array([[0, 0, 0], [0.3, 0, 0], [0, 0.001, 0]])
-    bunny = load_mesh(shared_path("models", "stanford-bunny.obj")).triangles()
-    cornell = merge_meshes([(load_mesh(p), None) for p in sorted(shared_path("scenes-ref", "cornell").glob("*.obj"))])
+    bunny = load_mesh(BUNNY).triangles()
+    cornell = merge_meshes([(load_mesh(p), None) for p in sorted(CORNELL.glob("*.obj"))])
     box_and_bunny = np.concatenate([cornell.triangles(), bunny * 7.0])
     return {"random": random_triangles(rng, 5000), "stretched": stretched, "slivers": slivers,
             "bunny": bunny, "cornell+bunny": box_and_bunny}
@@ -108,9 +107,8 @@ def test_gpu_buffer_references_every_triangle_once():
 
 def test_counters_are_compiled_out_by_default_and_add_up(gl):
     from mcpt.bench.counters import measure
-    from mcpt.gpu.shader import Source
-
     from mcpt.gpu.features import Features
+    from mcpt.gpu.shader import Source
     plain = Source("pathtrace.frag", Features.of(bounces=2).preamble()).text
     assert "atomicAdd" not in plain
     m = measure(ROOT / "scenes" / "bunny-metal.yaml", resolution=(32, 32), bounces=2)
@@ -118,9 +116,9 @@ def test_counters_are_compiled_out_by_default_and_add_up(gl):
     # One loop iteration is one node step or one triangle test, each reading four texels; the
     # large triangles tested written out before the traversal (glsl/bvh.glsl trace_const) add
     # their tests and one fetch per distinct vertex to every ray, and no iterations.
+    from mcpt.gpu.features import for_world
     from mcpt.scene import load_scene
     from mcpt.shapes.world import load_world
-    from mcpt.gpu.features import for_world
     d = for_world(load_world(load_scene(ROOT / "scenes" / "bunny-metal.yaml")), bounces=2).defines()
     tail, tail_fetches = d["MCPT_TRI_CONST"], d["MCPT_VERT_COUNT"]
     assert tail > 0 and 0 < tail_fetches <= 3 * tail  # the bunny sits in a box of large triangles
@@ -152,8 +150,8 @@ def test_dense_trees_are_detected_even_inside_a_larger_scene():
 
 
 def test_dense_traversal_agrees_with_the_default_one(gl):
-    from mcpt.shapes.geometry import pack_triangles
     from mcpt.bench.probe import run_probe
+    from mcpt.shapes.geometry import pack_triangles
 
     tris = MESHES["cornell+bunny"].astype(np.float32)
     bvh = build_bvh(tris)

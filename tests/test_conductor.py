@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pytest
 
+from mcpt.gpu.features import for_world
 from mcpt.scene import SceneError, parse_scene
 from mcpt.shading.materials import FLAG_ONE_SIDED, FRESNEL, FRESNEL_SHIFT, fresnel_dielectric
 from mcpt.shading.metals import METALS
 from mcpt.shapes.world import load_world
-from mcpt.gpu.features import for_world
 
 from .conftest import ROOT
-from .test_materials_util import floats, probe, sphere_grid, uniform_numbers
 from .test_materials_render import furnace, render
+from .test_materials_util import floats, probe, sphere_grid, uniform_numbers
 
 SPHERE = ROOT / "scenes" / "models" / "icosphere.obj"
 QUAD = ROOT / "scenes" / "models" / "quad.obj"
@@ -64,8 +64,8 @@ def test_conductor_fresnel_matches_complex_arithmetic(gl):
     ks[-20:] = 0.0  # k = 0: a dielectric, below and above eta = 1 (total internal reflection)
     ks[-40:-20] = rng.uniform(0.0, 1e-3, 20)  # almost a dielectric
     cos = np.concatenate([[0.0, 1e-4, 1.0], np.linspace(0.0, 1.0, 38)])
-    C, I = np.meshgrid(cos, np.arange(300), indexing="ij")
-    grid = np.stack([C.ravel(), etas[I.ravel()], ks[I.ravel()]], 1)
+    C, idx = np.meshgrid(cos, np.arange(300), indexing="ij")
+    grid = np.stack([C.ravel(), etas[idx.ravel()], ks[idx.ravel()]], 1)
     rand = np.stack([rng.uniform(0, 1, 100_000), rng.uniform(0.03, 6.0, 100_000), rng.uniform(0, 10, 100_000)], 1)
     items = np.concatenate([grid, rand]).astype(np.float32)
     out = floats(probe(gl, "fresnel_conductor", items)).astype(np.float64)
@@ -304,7 +304,8 @@ def test_specular_reflectance_forms():
         "{type: conductor, fresnel: none, specular_reflectance: [2, 1, 1]}")
     assert "texture file not found" in _err("{type: conductor, fresnel: none, specular_reflectance: nope.png}")
     # An image as the lobe scale: it takes the albedo slot, which the shader's texture lookup fills.
-    world = load_world(_mat(f"{{type: conductor, metal: Cu, specular_reflectance: {{file: {checker}, filter: nearest}}}}"))
+    world = load_world(_mat("{type: conductor, metal: Cu, "
+                            f"specular_reflectance: {{file: {checker}, filter: nearest}}}}"))
     mt = world.materials
     i = mt.names.index("m")
     assert mt.texture[i] == 0 and len(world.textures) == 1 and world.textures[0].filter == "nearest"

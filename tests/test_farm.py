@@ -298,9 +298,18 @@ def test_merge_refuses_another_scene_or_setting(folder, args, needle):
 
 def test_define_overrides_any_key(folder):
     r = invoke("scene.yaml", "-D", "camera.resolution=[9,7]", "-D",
-               "materials.red.albedo=[0.1,0.1,0.7]", "--spp", "2", "-o", "d.exr")
+               "materials.red.albedo=[0.1,0.1,0.7]", "--spp", "8", "-o", "d.exr")
     assert r.exit_code == 0, r.output
-    assert pixels("d.exr").shape == (7, 9, 3)
+    assert invoke("scene.yaml", "-D", "camera.resolution=[9,7]", "--spp", "8", "-o", "base.exr").exit_code == 0
+    d, base = pixels("d.exr").astype(np.float64), pixels("base.exr").astype(np.float64)
+    assert d.shape == base.shape == (7, 9, 3)
+    # The red box turned blue (same seed): where the images differ, red fell and blue rose.
+    diff = d - base
+    changed = np.abs(diff).max(axis=2) > 0
+    assert changed.mean() > 0.1, changed.mean()
+    assert diff[..., 0][changed].sum() < 0 < diff[..., 2][changed].sum()
+    assert base[changed][:, 0].sum() > base[changed][:, 2].sum()     # before: redder than blue
+    assert d[changed][:, 2].sum() > d[changed][:, 0].sum()           # after: bluer than red
 
 
 @pytest.mark.parametrize("define, needles", [

@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 import signal
 
-import numpy as np
 import pytest
 
 pytest.importorskip("distributed")
@@ -18,7 +17,10 @@ pytest.importorskip("distributed")
 from mcpt.render import Options, render as run  # noqa: E402
 from mcpt.farm.signals import StopSignals  # noqa: E402
 
-from .test_farm import folder, same_bits  # noqa: E402,F401  (fixture)
+from . import test_farm  # noqa: E402
+from .test_farm import same_bits  # noqa: E402
+
+folder = test_farm.folder  # the fixture: a scene folder as the cwd
 
 
 @pytest.fixture(scope="module")

@@ -5,17 +5,17 @@ test_materials_render.py; chi-square tests of the sampling routines in test_samp
 import math
 
 import numpy as np
-from mcpt.gpu.features import for_world
-from mcpt.gpu.pack import pack
 import pytest
 
-from mcpt.shading.normals import octahedral_decode, octahedral_encode, pack_normals
-from mcpt.shapes.world import load_world
-from mcpt.shading.materials import fdr_internal, fresnel_diffuse_reflectance
+from mcpt.gpu.features import for_world
+from mcpt.gpu.pack import pack
 from mcpt.scene import SceneError, parse_scene
+from mcpt.shading.materials import fdr_internal, fresnel_diffuse_reflectance
+from mcpt.shading.normals import octahedral_decode, octahedral_encode, pack_normals
 from mcpt.shading.texture import load_texture, lookup, pack_textures, srgb_to_linear
+from mcpt.shapes.world import load_world
 
-from .conftest import ROOT, shared_path
+from .conftest import ROOT, SPOT, SPOT_TEXTURE
 from .draw import render as draw
 from .test_materials_util import floats, probe, sphere_grid, uniform_numbers
 
@@ -170,7 +170,7 @@ def test_texture_loads_as_srgb_with_v_up(tmp_path):
 def test_glsl_texture_lookup_matches_the_reference(gl, tmp_path, wrap, filt):
     path, _ = _checker_png(tmp_path)
     small = load_texture(path, wrap, filt)
-    spot = load_texture(shared_path("models", "spot", "spot_texture.png"), wrap, filt)
+    spot = load_texture(SPOT_TEXTURE, wrap, filt)
     buf = pack_textures([small, spot])
     rng = np.random.default_rng(9)
     for tid, t in enumerate((small, spot)):
@@ -245,7 +245,7 @@ def test_material_parameters_are_validated_per_type():
     assert "diffuse material has no roughness" in err("{type: diffuse, roughness: 0.2}")
     assert "dielectric material has no albedo" in err("{type: dielectric, albedo: [1, 1, 1]}")
     assert "conductor material has no ior" in err("{type: conductor, ior: 1.5}")
-    assert "not both" in err("{albedo: [1, 1, 1], albedo_texture: " + str(shared_path("models", "spot", "spot_texture.png")) + "}")
+    assert "not both" in err("{albedo: [1, 1, 1], albedo_texture: " + str(SPOT_TEXTURE) + "}")
     assert "less than or equal to 1" in err("{type: conductor, roughness: 1.5}")
     assert "texture file not found" in err("{albedo_texture: nope.png}")
     assert "greater than 0" in err("{type: dielectric, absorption: {color: [0.5, 0, 1], distance: 1}}")
@@ -269,8 +269,8 @@ def test_diffuse_scene_uploads_no_normals_uvs_or_material_parameters():
 
 
 def test_features_follow_the_materials_a_scene_uses(tmp_path):
-    spot = shared_path("models", "spot", "spot_triangulated.obj")
-    tex = shared_path("models", "spot", "spot_texture.png")
+    spot = SPOT
+    tex = SPOT_TEXTURE
     s = _scene(f"""  cow: {{albedo_texture: {tex}, smooth_normals: true}}
   metal: {{type: conductor, roughness: 0.2}}
   mirror: {{type: conductor}}

@@ -5,11 +5,11 @@ Every render here goes through the real path tracer (glsl/pathtrace.frag) on sma
 import os
 
 import numpy as np
-from mcpt.gpu.features import for_world
 import pytest
 
+from mcpt.gpu.features import for_world
+from mcpt.scene import Scene, load_scene, parse_scene
 from mcpt.shapes.world import load_world
-from mcpt.scene import load_scene, parse_scene
 
 from .conftest import ROOT
 from .draw import render as draw
@@ -29,7 +29,7 @@ def render(gl, scene, spp, seed, *, bounces=None, variance=True, **flags):
         r.release()
 
 
-def furnace(material: str, *, bounces=8, res=16) -> "Scene":
+def furnace(material: str, *, bounces=8, res=16) -> Scene:
     text = f"""
 camera: {{position: [0, 0, 0], look_at: [0, 0, -1], vfov_deg: 60, resolution: [{res}, {res}]}}
 render: {{bounces: {bounces}}}
@@ -181,16 +181,16 @@ def test_absorbing_glass_transmits_beer_lambert(gl):
     normal incidence F = ((n - 1) / (n + 1))^2 and each crossing keeps T = color (the absorption
     distance is the diameter), so L = F + (1 - F)^2 T / (1 - F T) (light bouncing inside adds the
     geometric series)."""
-    text = f"""
-camera: {{position: [0, 0, 0.95], look_at: [0, 0, 0], vfov_deg: 0.4, resolution: [16, 16]}}
-render: {{bounces: 32}}
+    text = """
+camera: {position: [0, 0, 0.95], look_at: [0, 0, 0], vfov_deg: 0.4, resolution: [16, 16]}
+render: {bounces: 32}
 materials:
-  enclosure: {{albedo: [0, 0, 0], emission: [1, 1, 1]}}
-  glass: {{type: dielectric, ior: 1.5, smooth_normals: true,
-          absorption: {{color: [0.5, 0.7, 0.9], distance: 0.2}}}}
+  enclosure: {albedo: [0, 0, 0], emission: [1, 1, 1]}
+  glass: {type: dielectric, ior: 1.5, smooth_normals: true,
+          absorption: {color: [0.5, 0.7, 0.9], distance: 0.2}}
 meshes:
-  - {{file: furnace/sphere_inward.obj, material: enclosure}}
-  - {{file: models/icosphere.obj, material: glass, transform: {{scale: 0.1}}}}
+  - {file: furnace/sphere_inward.obj, material: enclosure}
+  - {file: models/icosphere.obj, material: glass, transform: {scale: 0.1}}
 """
     res, f = render(gl, parse_scene(text, SCENES / "inline.yaml"), 256, 5)
     assert f.uses.absorption

@@ -11,9 +11,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from mcpt.gpu.pack import pack
 
 from mcpt.gpu.features import Features
+from mcpt.gpu.pack import pack
+
 from .probes import run_test_probe
 
 MODE = {"sample": 0, "weight": 1, "eval": 2, "light": 3, "bary": 4, "texture": 5, "normal": 6,

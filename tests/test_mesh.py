@@ -10,19 +10,15 @@ import pytest
 
 from mcpt.shapes.mesh import Mesh, MeshError, MeshMaterial, _assemble, _Part, load_mesh
 
+from .conftest import CORNELL, SPOT
 from .merge import merge_meshes
 
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
-CORNELL = SHARED / "scenes-ref" / "cornell"
 LIGHT = CORNELL / "light.obj"
-SPOT = SHARED / "models" / "spot" / "spot_triangulated.obj"
 
 # The corners of light.obj as written in the file (Assimp parses them to float32).
 LIGHT_CORNERS = np.array(
     [[-0.23, 0.99, -0.18], [0.23, 0.99, -0.18], [0.23, 0.99, 0.2], [-0.23, 0.99, 0.2]], np.float32
 ).astype(np.float64)
-
-needs_cornell = pytest.mark.skipif(not LIGHT.is_file(), reason=f"{LIGHT} not available")
 
 
 def write(path: Path, text: str) -> Path:
@@ -36,7 +32,6 @@ def face_normals(mesh: Mesh) -> np.ndarray:
     return n / np.linalg.norm(n, axis=1, keepdims=True)
 
 
-@needs_cornell
 def test_cornell_light():
     mesh = load_mesh(LIGHT)
     assert mesh.name == "light"
@@ -55,7 +50,6 @@ def test_cornell_light():
         mesh.vertices[0, 0] = 1.0  # read-only
 
 
-@needs_cornell
 def test_transform_is_applied_in_float64():
     angle = np.radians(30.0)
     m = np.eye(4)
@@ -82,7 +76,6 @@ def test_normals_use_inverse_transpose(tmp_path):
     np.testing.assert_allclose(mesh.normals, [expected] * 3, atol=1e-6)
 
 
-@needs_cornell
 def test_mirror_transform_keeps_front_side():
     mirror = np.diag([1.0, -1.0, 1.0, 1.0])  # y -> -y: the light now faces up
     mesh = load_mesh(LIGHT, mirror, need_normals=True)
@@ -206,7 +199,6 @@ def test_own_index_check_names_sub_mesh(tmp_path):
         _assemble(Path("x.ply"), [part], [MeshMaterial("m")], None, False, False)
 
 
-@pytest.mark.skipif(not SPOT.is_file(), reason=f"{SPOT} not available")
 def test_uvs_and_normals_only_on_request():
     plain = load_mesh(SPOT)
     assert plain.normals is None and plain.uvs is None
@@ -221,7 +213,6 @@ def test_uvs_and_normals_only_on_request():
     assert full.num_triangles == plain.num_triangles == 5856
 
 
-@needs_cornell
 def test_merge_meshes_offsets_indices_and_maps_materials():
     light = load_mesh(LIGHT)
     walls = load_mesh(CORNELL / "red_wall.obj")

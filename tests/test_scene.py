@@ -14,9 +14,11 @@ from pydantic import ValidationError
 
 from mcpt.scene import Scene, SceneError, Transform, load_scene, parse_scene
 
+from .conftest import DATA
+
 REPO = Path(__file__).resolve().parent.parent
 SCENES = REPO / "scenes"
-SHARED_REF = Path("/work/shared/scenes-ref")
+REFERENCE = DATA / "scenes-ref"  # the canonical reference scenes the shipped ones copy
 
 # A scene in the shipped scenes/ folder so that its relative mesh paths resolve; it is only
 # parsed from text, never written. Every needle used by line_of() below is unique in BASE.
@@ -82,10 +84,7 @@ def assert_scene_error(text: str, line: int | None, key: str, *reason_parts: str
 
 
 def _reference(name: str) -> dict:
-    ref = SHARED_REF / name / "scene.json"
-    if not ref.is_file():
-        pytest.skip(f"reference scene {ref} not available")
-    return json.loads(ref.read_text())
+    return json.loads((REFERENCE / name / "scene.json").read_text())
 
 
 def test_cornell_box_matches_reference_json():
@@ -104,7 +103,7 @@ def test_cornell_box_matches_reference_json():
     for mesh, obj in zip(scene.meshes, ref["objects"]):
         assert mesh.file.is_absolute() and mesh.file.is_file()
         # The shipped OBJ is a byte-exact copy of the reference one.
-        assert mesh.file.read_bytes() == (SHARED_REF / "cornell" / obj["file"]).read_bytes()
+        assert mesh.file.read_bytes() == (REFERENCE / "cornell" / obj["file"]).read_bytes()
         material = scene.materials[mesh.material]
         assert material.type == "diffuse"
         assert material.albedo == tuple(obj["albedo"]), obj["file"]
@@ -121,7 +120,7 @@ def test_furnace_matches_reference_json():
     assert scene.render.bounces == ref["integrator"]["bounces"]
     (mesh,) = scene.meshes
     assert mesh.file == (SCENES / "furnace" / "sphere_inward.obj").resolve()
-    assert mesh.file.read_bytes() == (SHARED_REF / "furnace" / "sphere_inward.obj").read_bytes()
+    assert mesh.file.read_bytes() == (REFERENCE / "furnace" / "sphere_inward.obj").read_bytes()
     material = scene.materials[mesh.material]
     assert material.albedo == (0.8, 0.8, 0.8) and material.emission == (1.0, 1.0, 1.0)
 

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from mcpt.shading import sobol
 from mcpt.gpu.context import shared_context
+from mcpt.shading import sobol
+
 from .probes import run_test_probe
 
 from .test_materials_util import chi2_test

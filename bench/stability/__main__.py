@@ -64,7 +64,7 @@ def main(argv=None) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps([
             {"group": r.case.group, "case": r.case.name, "expected": r.outcome.expected,
-             "measured": r.outcome.measured, "passed": r.outcome.passed, "status": r.status,
+             "measured": r.outcome.measured, "passed": bool(r.outcome.passed), "status": r.status,
              "known": r.known, "seconds": round(r.seconds, 3)} for r in rows], indent=2))
     return 1 if failed else 0
 

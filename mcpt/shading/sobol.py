@@ -116,8 +116,3 @@ def sample_2d(seed: int, pixel, dim, index) -> np.ndarray:
     """What ``rand2_at(dim)`` returns in pass ``index``: shape (..., 2) float32 in [0, 1)."""
     x, y = sample_bits(seed, pixel, dim, index)
     return np.stack([to_float(x), to_float(y)], axis=-1)
-
-
-def sample_1d(seed: int, pixel, dim, index) -> np.ndarray:
-    """What ``rand_at(dim)`` returns: the first coordinate of the padded 2D sample."""
-    return sample_2d(seed, pixel, dim, index)[..., 0]
