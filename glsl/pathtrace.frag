@@ -1,6 +1,6 @@
-// The path tracer: one sample per pixel per pass, added into a float32 accumulation target.
-// Output: rgb = radiance estimate, a = 1 when the sample was non-finite and dropped (so the
-// alpha channel of the accumulation counts dropped samples per pixel).
+// The path tracer: u_samples samples per pixel per draw, added into a float32 accumulation
+// target. Output: rgb = the samples' radiance (main's Tally), a = how many were dropped
+// (non-finite or cut short), so the alpha channel of the accumulation counts dropped samples.
 #include "common.glsl"
 #include "sampler.glsl"
 #include "bvh.glsl"
@@ -33,9 +33,9 @@ layout(location = 1) out vec4 o_aov_a;
 layout(location = 2) out vec4 o_aov_b;
 #endif
 
-// Bounce convention (the reference scenes' conventions; README: `--bounces`): emission seen at
-// hit k ends a path with k - 1 scattering events; scattering at hit k is bounce k, allowed while
-// k <= MCPT_BOUNCES.
+// Bounce convention (README, `--bounces`: 0 emitters only, 1 direct light only): emission seen
+// at hit k ends a path with k - 1 scattering events; scattering at hit k is bounce k, allowed
+// while k <= MCPT_BOUNCES.
 //
 // Sampling (mcpt/gpu/features.py): with MCPT_MIS, every vertex with a non-delta lobe takes one light
 // sample and one BSDF sample, weighted by the power heuristic; emission found after a delta
@@ -60,7 +60,7 @@ bool path_step(inout Path P) {
     Material m = material(tri_material(h.tri));
     vec3 n = normalize(tri_normal_raw(h.tri));
     float cos_o = dot(n, ray.d);  // < 0: the ray arrives at the front side
-    material_absorb(P.beta, m, cos_o, h.t);  // the segment just traced ran inside glass
+    material_absorb(P.beta, m, cos_o, h.t);  // Beer-Lambert, if the segment ran inside glass
     emitted_radiance(P, m, h, cos_o);        // lights.glsl
 #if MCPT_AOV
     aov_hit(P, h, m, n, cos_o, -ray.d);
