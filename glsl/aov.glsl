@@ -14,6 +14,10 @@
 // first hit, any material (0 when it escapes). The host divides by the count, so a read-back the
 // renderer drops as non-finite takes its AOVs with it (mcpt/gpu/render.py drop_nonfinite); a sample
 // whose radiance alone is non-finite keeps its (finite) AOVs.
+#include "path_state.glsl"
+#include "normals.glsl"
+#include "texture.glsl"
+
 vec4 g_aov_a = vec4(0.0);  // this draw's sums: albedo.rgb, depth [scene units]
 vec4 g_aov_b = vec4(0.0);  // normal.xyz, events
 
@@ -28,18 +32,8 @@ void aov_event(inout Path P, vec3 albedo, vec3 normal) {
 void aov_hit(inout Path P, Hit h, Material m, vec3 n, float cos_o, vec3 wo) {
     if (P.k == 1) g_aov_a.a += h.t;  // camera rays are unit length: t is the distance
     if (!P.aov_open || !bsdf_has_smooth(m)) return;
-    vec3 ns = cos_o < 0.0 ? n : -n;
-#if MCPT_SMOOTH_NORMALS
-    if ((m.flags & MAT_FLAG_SMOOTH) != 0u) {  // as path_step: the interpolated normal if it faces wo
-        vec3 sn = normalize(shading_normal_raw(h.tri, h.bary));
-        sn = cos_o < 0.0 ? sn : -sn;
-        if (dot(sn, wo) > 0.0) ns = sn;
-    }
-#endif
-    vec3 albedo = m.albedo;
-#if MCPT_TEXTURES
-    if (m.texture >= 0) albedo = texture_rgb(m.texture, tri_uv(h.tri, h.bary));
-#endif
+    vec3 ns = shading_normal(m, h, cos_o < 0.0 ? n : -n, cos_o, wo);  // as path_step
+    vec3 albedo = albedo_at(m, h);
     if (material_back_black(m, cos_o > 0.0)) albedo = vec3(0.0);
     aov_event(P, clamp(albedo, 0.0, 1.0), ns);
 }

@@ -140,21 +140,15 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
 }
 #endif
 
-// One loop iteration = one work item, a node OR one triangle, read with the same four fetches:
-// llvmpipe runs the whole loop body for every lane whatever each lane needs (issue #14), so the
-// body holds one box-pair test, one triangle test and four texel fetches, nothing more.
-// Item reference: texel address | triangle count << 28; count 0 is a node, count k >= 1 the
-// leaf of k consecutive triangle records starting there (a leaf cursor: one triangle per step).
-bool trace(Ray r, inout Hit h, bool any_hit) {
-    RayPre p = ray_pre(r.d);
-    bool found = false;
 #if MCPT_BVH && MCPT_BVH_DENSE
-    // Scenes where a ray must test very many triangles (heavily overlapping boxes, mcpt/shapes/bvh.py
-    // BVH.dense): one triangle per iteration would run into llvmpipe's loop limit
-    // (common.glsl), so each node step tests both children's boxes and intersects leaf children
-    // right there, up to 2 x BVH_MAX_LEAF triangles per iteration. Interior node = 4 texels:
-    //   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
-    // child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
+// Scenes where a ray must test very many triangles (heavily overlapping boxes, mcpt/shapes/bvh.py
+// BVH.dense): one triangle per iteration would run into llvmpipe's loop limit
+// (common.glsl), so each node step tests both children's boxes and intersects leaf children
+// right there, up to 2 x BVH_MAX_LEAF triangles per iteration. Interior node = 4 texels:
+//   (left.bmin, left.a), (left.bmax, left.b), (right.bmin, right.a), (right.bmax, right.b)
+// child b == 0: interior node a; else leaf with first triangle a, count b & 0x7fffffff.
+bool trace_dense(Ray r, RayPre p, inout Hit h, bool any_hit) {
+    bool found = false;
     vec3 inv = safe_inv(r.d);
     int stack[BVH_STACK];
     int sp = 0;
@@ -194,7 +188,17 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
             node = stack[--sp];
         }
     }
+    return found;
+}
+
 #elif MCPT_BVH
+// One loop iteration = one work item, a node OR one triangle, read with the same four fetches:
+// llvmpipe runs the whole loop body for every lane whatever each lane needs (issue #14), so the
+// body holds one box-pair test, one triangle test and four texel fetches, nothing more.
+// Item reference: texel address | triangle count << 28; count 0 is a node, count k >= 1 the
+// leaf of k consecutive triangle records starting there (a leaf cursor: one triangle per step).
+bool trace_bvh(Ray r, RayPre p, inout Hit h, bool any_hit) {
+    bool found = false;
     vec3 inv = safe_inv(r.d);
     uint stack[BVH_STACK];
     int sp = 0;
@@ -247,10 +251,14 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
             cur = stack[--sp];
         }
     }
-#elif MCPT_TRI_CONST > 0
-    found = trace_const(r, p, any_hit, h);
-#else
-    // BVH_MAX_LEAF triangles per iteration: fewer loop iterations (see common.glsl).
+    return found;
+}
+
+#elif MCPT_TRI_CONST == 0
+// No BVH, the triangle count a uniform: BVH_MAX_LEAF triangles per iteration (fewer loop
+// iterations, see common.glsl).
+bool trace_brute(Ray r, RayPre p, inout Hit h, bool any_hit) {
+    bool found = false;
     for (int i = 0; i < u_tri_count; i += BVH_MAX_LEAF) {
         LOOP_TICK();
         BVH_COUNT(1, 3 * BVH_MAX_LEAF);
@@ -260,8 +268,23 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
             if (any_hit) return true;
         }
     }
-#endif
     return found;
+}
+#endif
+
+// The closest hit nearer than h.t (any_hit: any hit, the first found), by the structure the
+// scene was compiled with.
+bool trace(Ray r, inout Hit h, bool any_hit) {
+    RayPre p = ray_pre(r.d);
+#if MCPT_BVH && MCPT_BVH_DENSE
+    return trace_dense(r, p, h, any_hit);
+#elif MCPT_BVH
+    return trace_bvh(r, p, h, any_hit);
+#elif MCPT_TRI_CONST > 0
+    return trace_const(r, p, any_hit, h);
+#else
+    return trace_brute(r, p, h, any_hit);
+#endif
 }
 
 #if MCPT_COUNTERS

@@ -9,6 +9,11 @@
 // Every BSDF works with a shading normal n on the side of wo (dot(n, wo) > 0) and returns
 // f * |cos| (never f alone), so a Lambertian's 1/pi and cosine cancel against its pdf in one
 // place. Each material type lives in its own file, compiled only when the scene uses it.
+//
+// A new BSDF is one new file pair, glsl/bsdf_<name>.glsl (its <name>_sample and <name>_eval)
+// beside its host twin under mcpt/shading/ (its parameters in the table; today's BSDFs share
+// mcpt/shading/materials.py, whose TYPES gets its id), plus one line in each dispatch below
+// (marked "Dispatch": the #include, bsdf_has_smooth, bsdf_eval, bsdf_sample).
 layout(binding = 4) uniform usamplerBuffer u_materials;
 
 #define MAT_DIFFUSE 0
@@ -68,6 +73,7 @@ struct BsdfSample {
     float eta2;     // squared relative index crossed (1 unless refracted), for roulette
 };
 
+// Dispatch: one #include per BSDF file.
 #if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC
 #include "bsdf_diffuse.glsl"
 #endif
@@ -110,6 +116,7 @@ bool material_black(Material m) {
 }
 
 // Whether the material has a non-delta lobe, i.e. whether light sampling can find anything.
+// Dispatch: one line per BSDF with a delta lobe.
 bool bsdf_has_smooth(Material m) {
 #if MCPT_MAT_CONDUCTOR
     if (m.type == MAT_CONDUCTOR) return m.alpha > 0.0;
@@ -122,6 +129,7 @@ bool bsdf_has_smooth(Material m) {
 
 // f |cos| of the non-delta lobes for directions wo, wi (unit), and the solid-angle pdf with
 // which bsdf_sample would produce wi. Zero when wi is below the surface (reflection only).
+// Dispatch: one line per BSDF (the Lambertian, the default, last).
 vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
 #if MCPT_MAT_CONDUCTOR
     if (m.type == MAT_CONDUCTOR) return conductor_eval(m, n, wo, wi, pdf);
@@ -144,6 +152,7 @@ vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
 // Sample wi given wo. `front`: wo is on the geometric front side (outside, for glass). u: two
 // uniform numbers (materials with two lobes pick the lobe with u.x and rescale it). False when
 // the sample carries nothing (the path ends).
+// Dispatch: one line per BSDF (the Lambertian, the default, last).
 bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec2 u, out BsdfSample s) {
     s.delta = false; s.transmit = false; s.eta2 = 1.0;
 #if MCPT_MAT_CONDUCTOR
@@ -161,5 +170,24 @@ bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec2 u, out BsdfSample
     return true;
 #else
     return false;
+#endif
+}
+
+// A sampled direction must leave on the geometric normal ng's side when reflected and on the
+// other when refracted (ng: turned to the side the path came from; with shading normals this
+// is the light-leak check, glsl/pathtrace.frag "Normals"). False: the path ends.
+bool bsdf_sample_side_ok(BsdfSample s, vec3 ng) {
+#if MCPT_SMOOTH_NORMALS || MCPT_MAT_DIELECTRIC
+    return (dot(s.wi, ng) > 0.0) != s.transmit;
+#else
+    return true;
+#endif
+}
+
+// Beer-Lambert absorption over the segment of length t just traced, when it ran inside a
+// dielectric (the ray arrives at its back side, cos_o > 0).
+void material_absorb(inout vec3 beta, Material m, float cos_o, float t) {
+#if MCPT_ABSORPTION
+    if (m.type == MAT_DIELECTRIC && cos_o > 0.0) beta *= exp(-m.sigma_a * t);
 #endif
 }

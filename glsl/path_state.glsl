@@ -10,6 +10,8 @@
 // left. A path needs one draw per ~SEGMENT_TICKS iterations: 8-bounce scenes never need a
 // second one. Radiance is added to the accumulation target as it is gathered, so a sample's
 // draws add up to its value (main() in glsl/pathtrace.frag).
+#include "materials.glsl"
+
 struct Path {
     Ray ray;              // the next ray to trace; the hit it finds is hit k
     vec3 beta;            // throughput
@@ -22,6 +24,26 @@ struct Path {
 };
 
 Path camera_path(Ray r) { return Path(r, vec3(1.0), vec3(0.0), 1, 0.0, true, 1.0, true); }
+
+// Continuation after bsdf_sample s at hit k = P.k, at point x (ng: the geometric normal on the
+// side the path came from, xo: x offset to that side): the throughput takes the sample's weight,
+// the MIS memory its pdf and delta flag, roulette's its eta^2, and the next ray leaves on the
+// side s goes to. Roulette (glsl/roulette.glsl) may still end the path.
+void path_scatter(inout Path P, BsdfSample s, vec3 x, vec3 ng, vec3 xo) {
+    P.beta *= s.weight;
+    P.pdf_bsdf_prev = s.pdf;
+#if MCPT_DELTA
+    P.delta_prev = s.delta;
+#endif
+#if MCPT_MAT_DIELECTRIC && MCPT_RR
+    P.eta_scale *= s.eta2;
+#endif
+#if MCPT_MAT_DIELECTRIC
+    if (s.transmit) xo = offset_ray(x, -ng);
+#endif
+    P.ray = Ray(xo, s.wi);
+    P.k = P.k + 1;
+}
 
 #if MCPT_CONTINUE
 #define SEGMENT_TICKS (MCPT_LOOP_LIMIT / 4)

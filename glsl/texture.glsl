@@ -1,6 +1,11 @@
 // Albedo textures (host side: mcpt/shading/texture.py documents the buffer; UVs: pack_uvs there).
 // Texels stay sRGB-encoded, 8 bits a channel; each of the four taps of a bilinear lookup is
 // decoded to linear RGB before the interpolation, as a GPU's sRGB texture does.
+// The buffers and lookups are compiled only with MCPT_TEXTURES; albedo_at always.
+#include "geometry.glsl"
+#include "materials.glsl"
+
+#if MCPT_TEXTURES
 layout(binding = 8) uniform usamplerBuffer u_uvs;       // 2 texels per triangle (BVH order)
 layout(binding = 9) uniform usamplerBuffer u_textures;  // headers, then 4 pixels per texel
 
@@ -62,4 +67,14 @@ vec3 texture_rgb(int id, vec2 uv) {
     vec3 bot = mix(tex_pixel(hdr, xa, ya), tex_pixel(hdr, xb, ya), t.x);
     vec3 top = mix(tex_pixel(hdr, xa, yb), tex_pixel(hdr, xb, yb), t.x);
     return mix(bot, top, t.y);
+}
+#endif
+
+// The albedo at hit h: the material's texture there if it has one, else its constant albedo.
+vec3 albedo_at(Material m, Hit h) {
+    vec3 albedo = m.albedo;
+#if MCPT_TEXTURES
+    if (m.texture >= 0) albedo = texture_rgb(m.texture, tri_uv(h.tri, h.bary));
+#endif
+    return albedo;
 }

@@ -24,11 +24,8 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..shapes.geometry import shared_vertices
+from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
-
-# Russian roulette starts after this many scattering events (Mitsuba's rr_depth is 5 path
-# segments = 4 scattering events; we start a little earlier, it is unbiased either way).
-RR_START = 3
 
 # Where the numbers come from (mcpt/shading/sampler.py, which defines the layout once): "sobol"
 # padded Owen-scrambled Sobol' computed in the shader (default: converges faster, no per-pass

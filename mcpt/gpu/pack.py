@@ -12,6 +12,13 @@ reads it:
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
     camera     mcpt/shading/camera.py    <-> glsl/camera.glsl (uniforms)
+
+The integrator's other pieces have host twins that pack no array (a define or a layout only):
+
+    random dims        mcpt/shading/sampler.py   <-> glsl/sampler.glsl (MCPT_DIM_* defines)
+    roulette           mcpt/shading/roulette.py  <-> glsl/roulette.glsl (MCPT_RR_START)
+    path state images  mcpt/gpu/path_state.py    <-> glsl/path_state.glsl (continuation)
+    AOV targets        mcpt/gpu/aov.py           <-> glsl/aov.glsl
 """
 
 from __future__ import annotations
