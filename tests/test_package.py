@@ -84,8 +84,9 @@ def verification_machinery(files: dict[str, bytes]) -> list[str]:
 
     * a test module, fixture file, golden or oracle by name, or golden data (.npz);
     * a module that imports pytest or the tests package;
-    * a probe: a shader that the renderer's entry shaders (the .frag/.vert of mcpt/glsl/) never
-      reach through #include;
+    * a probe: a shader that neither the renderer's entry shaders (the .frag/.vert of mcpt/glsl/)
+      reach through #include nor a shipped module names (``mcpt bench``'s stability suite runs
+      bench/glsl/probe_*.frag: a user command's shader, not a test's);
     * a module only tests can use: no shipped module imports it and it is no entry point (the
       console script, a ``__main__``, a module run with ``python -m``, a package's ``__init__``).
     """
@@ -123,7 +124,9 @@ def verification_machinery(files: dict[str, bytes]) -> list[str]:
     shaders = {n for n in files if n.endswith((".glsl", ".frag", ".vert"))}
     include = re.compile(rb'^\s*#include\s+"([^"]+)"', re.M)
     reached = set()
-    todo = [n for n in shaders if n.startswith("mcpt/glsl/") and n.endswith((".frag", ".vert"))]
+    named = b"".join(src for n, src in files.items() if n.endswith(".py"))
+    todo = [n for n in shaders if (n.startswith("mcpt/glsl/") and n.endswith((".frag", ".vert")))
+            or f'"{n.rsplit("/", 1)[-1]}"'.encode() in named]
     while todo:
         n = todo.pop()
         if n not in reached:
