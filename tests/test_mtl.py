@@ -60,11 +60,12 @@ meshes:
 
 
 def test_map_kd_is_read_relative_to_the_mtl_with_options():
-    maps = obj.mtl_textures(ROOT / "scenes" / "models" / "checker-cube" / "cube.obj")
-    mtl, file = maps["checker"]["map_kd"]
-    assert mtl.name == "cube.mtl" and file == ROOT / "scenes" / "models" / "checker-cube" / "checker.png"
-    assert obj._map_file("-s 1 1 1 -o 0.5 -bm 2 -clamp on my texture.png") == "my texture.png"
-    assert obj._map_file("-s 2 tex.png") == "tex.png"
+    maps = obj.ObjFile.read(ROOT / "scenes" / "models" / "checker-cube" / "cube.obj").mtl.maps
+    tmap = maps["checker"]["map_kd"]
+    assert tmap.declared_in.name == "cube.mtl" and tmap.keyword == "map_Kd"
+    assert tmap.file == ROOT / "scenes" / "models" / "checker-cube" / "checker.png"
+    assert obj.map_file("-s 1 1 1 -o 0.5 -bm 2 -clamp on my texture.png") == "my texture.png"
+    assert obj.map_file("-s 2 tex.png") == "tex.png"
 
 
 def test_obj_with_map_kd_renders_its_texture(gl, tmp_path):
