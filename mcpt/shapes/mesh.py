@@ -108,8 +108,10 @@ def read_geometry(source, *, need_normals: bool = False) -> RawMesh:
         if not source.is_file():
             raise MeshError(f"{source}: not a regular file")
         reader = READERS.get(source.suffix.lower(), read_assimp)
-    else:
+    elif source.kind in READERS:
         reader = READERS[source.kind]
+    else:
+        raise MeshError(f"{source}: no geometry reader for {source.kind!r} (known: {', '.join(READERS)})")
     return reader(source, need_normals=need_normals)
 
 
