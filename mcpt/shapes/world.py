@@ -77,6 +77,9 @@ class MeshPart:
 
 
 def load_world(scene: Scene) -> World:
+    """The render-ready world of ``scene``: read each mesh, resolve its materials and rebase it to
+    the camera (:func:`_load_part`), drop triangles repeated across files, build the BVH, reorder
+    the per-triangle data into its leaf order, derive the lights."""
     t0 = time.perf_counter()
     resolver = MaterialResolver(scene)
     parts = [_load_part(scene, mi, resolver) for mi in range(len(scene.meshes))]
@@ -84,19 +87,10 @@ def load_world(scene: Scene) -> World:
         raise LoadError(f"{scene.source_path or 'scene'}: the scene has no triangles")
     t_load = time.perf_counter() - t0
 
-    tris = np.concatenate([p.tris for p in parts]).astype(np.float32)
-    keep = _first_of_duplicate_triangles(tris) if len(parts) > 1 else slice(None)
-    repeated = 0 if isinstance(keep, slice) else int(tris.shape[0] - keep.size)
-    if repeated:
-        # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one
-        # surface for BSDF hits: direct light counted double. mesh.py does this within a file.
-        log.info("dropped %d triangles repeated across mesh files", repeated)
-    tris = tris[keep]
+    tris, keep, repeated = _drop_repeated(np.concatenate([p.tris for p in parts]).astype(np.float32), len(parts))
     bvh = build_bvh(tris)
-    order = bvh.order
-    tris = tris[order]
-    tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, order)
-
+    tris = tris[bvh.order]
+    tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
     lights = build_lights(geometry.areas(tris), table.emission[tri_mat])
     if lights.count == 0:
@@ -137,12 +131,21 @@ def _rebased(mesh: Mesh, ids: np.ndarray, origin: np.ndarray) -> MeshPart:
     return MeshPart(tris, ids[mesh.face_material], normals, uvs, mesh.dropped_degenerate, mesh.dropped_duplicate)
 
 
-def _first_of_duplicate_triangles(tris32: np.ndarray) -> np.ndarray:
-    """Indices of the first occurrence of each triangle, equal float32 corners in the same cyclic
-    order counting as the same triangle (what mesh.py does per file, here across files)."""
+def _drop_repeated(tris32: np.ndarray, n_meshes: int):
+    """(kept triangles, their indices or a whole slice, how many were dropped): a triangle that
+    repeats one of an earlier mesh file, equal float32 corners in the same cyclic order, is
+    dropped (mesh.py does this within a file)."""
+    if n_meshes < 2:
+        return tris32, slice(None), 0
     corners = np.ascontiguousarray(tris32.reshape(-1, 3)).view(np.uint32)
     _, ids = np.unique(corners, axis=0, return_inverse=True)
-    return first_of_duplicates(ids.reshape(-1, 3))
+    keep = first_of_duplicates(ids.reshape(-1, 3))
+    repeated = int(tris32.shape[0] - keep.size)
+    if repeated:
+        # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one
+        # surface for BSDF hits: direct light counted double.
+        log.info("dropped %d triangles repeated across mesh files", repeated)
+    return tris32[keep], keep, repeated
 
 
 def _per_triangle(parts: list[MeshPart], textured: bool, keep, order: np.ndarray):
