@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcpt.shapes.mesh import Mesh, MeshError, MeshMaterial, _assemble, _Part, load_mesh
+from mcpt.shapes.mesh import Mesh, MeshError, MeshMaterial, RawMesh, RawPart, assemble, load_mesh
 
 from .conftest import CORNELL, SPOT
 from .merge import merge_meshes
@@ -194,9 +194,9 @@ def test_missing_file(tmp_path):
 def test_own_index_check_names_sub_mesh(tmp_path):
     # Assimp's validation normally catches this first; the loader checks again for importers
     # that do not, and must name the file and the sub-mesh.
-    part = _Part("sub-mesh #0 'body'", np.zeros((3, 3)), np.array([0, 1, 5]), 0, None, None)
+    part = RawPart("sub-mesh #0 'body'", np.zeros((3, 3)), np.array([0, 1, 5]), 0, None, None)
     with pytest.raises(MeshError, match=r"x\.ply: sub-mesh #0 'body': 1 vertex indices out of range"):
-        _assemble(Path("x.ply"), [part], [MeshMaterial("m")], None, False, False)
+        assemble(RawMesh(Path("x.ply"), [part], [MeshMaterial("m")]))
 
 
 def test_uvs_and_normals_only_on_request():

@@ -60,11 +60,12 @@ meshes:
 
 
 def test_map_kd_is_read_relative_to_the_mtl_with_options():
-    maps = obj.mtl_textures(ROOT / "scenes" / "models" / "checker-cube" / "cube.obj")
-    mtl, file = maps["checker"]["map_kd"]
-    assert mtl.name == "cube.mtl" and file == ROOT / "scenes" / "models" / "checker-cube" / "checker.png"
-    assert obj._map_file("-s 1 1 1 -o 0.5 -bm 2 -clamp on my texture.png") == "my texture.png"
-    assert obj._map_file("-s 2 tex.png") == "tex.png"
+    maps = obj.ObjFile.read(ROOT / "scenes" / "models" / "checker-cube" / "cube.obj").mtl.maps
+    tmap = maps["checker"]["map_kd"]
+    assert tmap.declared_in.name == "cube.mtl" and tmap.keyword == "map_Kd"
+    assert tmap.file == ROOT / "scenes" / "models" / "checker-cube" / "checker.png"
+    assert obj.map_file("-s 1 1 1 -o 0.5 -bm 2 -clamp on my texture.png") == "my texture.png"
+    assert obj.map_file("-s 2 tex.png") == "tex.png"
 
 
 def test_obj_with_map_kd_renders_its_texture(gl, tmp_path):
@@ -116,3 +117,31 @@ def test_map_ke_emits_the_texture_mean_with_a_warning(tmp_path, caplog):
     mean = srgb_to_linear(np.array(list(BLOCKS.values()))).mean(axis=0)
     np.testing.assert_allclose(world.materials.emission[i], 2 * mean, rtol=1e-9)
     assert "emission textures are not supported" in caplog.text
+
+
+def test_load_world_reads_each_obj_and_mtl_once(tmp_path, monkeypatch):
+    """mcpt reads an OBJ's bytes once for all its checks (bad vertices, MTL names, precision) and
+    each MTL once (Assimp opens them on its own, by path: assimp-py cannot read from memory)."""
+    from collections import Counter
+    from pathlib import Path
+
+    quad = _textured_quad(tmp_path / "m", mtl_extra="Ke 0.5 0.5 0.5\n")
+    reads: Counter = Counter()
+    read_bytes, read_text = Path.read_bytes, Path.read_text
+
+    def count_bytes(self):
+        reads[self.name] += 1
+        return read_bytes(self)
+
+    def count_text(self, *args, **kwargs):
+        reads[self.name] += 1
+        return read_text(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "read_bytes", count_bytes)
+    monkeypatch.setattr(Path, "read_text", count_text)
+    world = load_world(_scene(quad, tmp_path=tmp_path))
+    assert reads["quad.obj"] == 1 and reads["quad.mtl"] == 1, reads
+    assert reads[ENCLOSURE.name] == 1, reads
+    # What was read once still means what it did: map_Kd (textured), Ke (emission).
+    i = world.materials.names.index("painted")
+    assert world.materials.texture[i] >= 0 and tuple(world.materials.emission[i]) == (0.5, 0.5, 0.5)

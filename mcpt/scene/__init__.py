@@ -4,7 +4,8 @@
 naming file, line and key. Nothing here loads meshes or touches GL: mcpt/shapes/world.py turns a
 Scene into render-ready data. Modules: ``reader`` (YAML with line numbers), ``model`` (camera,
 render settings, meshes, the scene root), ``materials``, ``transform``, ``fields`` (shared field
-types), ``diagnostics`` (error wording).
+types), ``diagnostics`` (error wording), ``material_meaning`` (what the scene's and the mesh
+files' materials mean as rows of the material table; used by the world's build).
 """
 
 from .diagnostics import SceneError

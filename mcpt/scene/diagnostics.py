@@ -18,7 +18,7 @@ from pydantic import BaseModel, ValidationError
 from ..errors import McptError
 
 #: A key path as pydantic reports it, stringified: ("meshes", "2", "material").
-_KeyPath = tuple[str, ...]
+KeyPath = tuple[str, ...]
 
 
 #: Longest reason a SceneError prints (characters); longer ones are cut in the middle.
@@ -66,11 +66,11 @@ class SceneError(McptError):
         return (type(self), (self.file, self.line, self.key, self.reason))
 
 
-class _FieldError(ValueError):
+class FieldError(ValueError):
     """Raised inside a validator to blame a sub-field (``path``) instead of the whole model.
 
     pydantic only knows the location of the validator that raised; cross-field checks run on the
-    parent model, so they carry the real culprit here and :func:`_to_scene_error` appends it.
+    parent model, so they carry the real culprit here and :func:`to_scene_error` appends it.
     """
 
     def __init__(self, path: tuple[str | int, ...], message: str) -> None:
@@ -79,15 +79,15 @@ class _FieldError(ValueError):
 
 
 
-def _dotted(path: tuple[Any, ...]) -> str:
+def dotted(path: tuple[Any, ...]) -> str:
     return ".".join(str(p) for p in path)
 
 
-def _type_name(value: Any) -> str:
+def type_name(value: Any) -> str:
     return "null" if value is None else type(value).__name__
 
 
-def _line_of(lines: dict[_KeyPath, int], loc: tuple[Any, ...]) -> int | None:
+def line_of(lines: dict[KeyPath, int], loc: tuple[Any, ...]) -> int | None:
     """Line of the longest prefix of ``loc`` that was written in the file.
 
     A missing key has no line of its own, so it is blamed on its parent mapping's key.
@@ -99,11 +99,10 @@ def _line_of(lines: dict[_KeyPath, int], loc: tuple[Any, ...]) -> int | None:
     return None
 
 
-def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
-    """The model class validating the mapping at ``loc`` (for listing allowed keys), if any."""
-    from .model import Scene  # the root model (imported here: model.py imports this module)
-
-    model: type[BaseModel] = Scene
+def _model_at(loc: tuple[Any, ...], root: type[BaseModel]) -> type[BaseModel] | None:
+    """The model class validating the mapping at ``loc`` under the ``root`` model (for listing
+    allowed keys), if any."""
+    model: type[BaseModel] = root
     i = 0
     while i < len(loc):
         field = next(
@@ -124,7 +123,8 @@ def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
     return model
 
 
-def _describe(err: dict[str, Any], loc: tuple[Any, ...], missing: tuple[str, ...] = ()) -> str:
+def _describe(err: dict[str, Any], loc: tuple[Any, ...], root: type[BaseModel],
+              missing: tuple[str, ...] = ()) -> str:
     """A friendlier one-line message for one pydantic error dict."""
     kind, value = err["type"], err.get("input")
     if kind == "value_error" and "error" in err.get("ctx", {}):
@@ -132,7 +132,7 @@ def _describe(err: dict[str, Any], loc: tuple[Any, ...], missing: tuple[str, ...
     if kind == "missing":
         return "required key is missing"
     if kind == "extra_forbidden":
-        model = _model_at(loc[:-1])
+        model = _model_at(loc[:-1], root)
         if model is None:
             return f"unknown key {shown(loc[-1])}"
         allowed = [f.alias or name for name, f in model.model_fields.items()]
@@ -144,16 +144,17 @@ def _describe(err: dict[str, Any], loc: tuple[Any, ...], missing: tuple[str, ...
     msg = err["msg"]
     if kind.endswith("_type") or kind in ("finite_number", "is_instance_of"):
         # Show what was actually read: "abc" (str), True (bool), 1000.0 (float from 1e3) ...
-        msg = f"{msg}, got {_type_name(value)} {shown(value)}"
+        msg = f"{msg}, got {type_name(value)} {shown(value)}"
         if kind == "int_type" and isinstance(value, float) and value.is_integer():
             msg += f" (write {int(value)}: an exponent or decimal point makes a float)"
     return msg
 
 
-def _to_scene_error(
-    exc: ValidationError, file: str | Path, lines: dict[_KeyPath, int], note: str = ""
+def to_scene_error(
+    exc: ValidationError, file: str | Path, lines: dict[KeyPath, int], root: type[BaseModel], note: str = ""
 ) -> SceneError:
-    """The first pydantic error as a :class:`SceneError` pointing at the file's line.
+    """The first pydantic error as a :class:`SceneError` pointing at the file's line; ``root`` is
+    the model that was validated (the Scene), whose fields name the allowed keys.
 
     An unknown key is reported before a missing one: a misspelt key causes both, and the
     misspelling is what the user has to fix (with the missing key as the suggestion).
@@ -165,7 +166,7 @@ def _to_scene_error(
     missing = tuple(str(e["loc"][-1]) for e in errors
                     if e["type"] == "missing" and tuple(e["loc"][:-1]) == loc[:-1])
     cause = err.get("ctx", {}).get("error")
-    if isinstance(cause, _FieldError):  # a cross-field check blamed a specific sub-field
+    if isinstance(cause, FieldError):  # a cross-field check blamed a specific sub-field
         loc += cause.path
-    reason = _describe(err, loc, missing) + (f" {note}" if note else "")
-    return SceneError(file, _line_of(lines, loc) if lines else None, _dotted(loc), reason)
+    reason = _describe(err, loc, root, missing) + (f" {note}" if note else "")
+    return SceneError(file, line_of(lines, loc) if lines else None, dotted(loc), reason)

@@ -5,16 +5,23 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import (BeforeValidator, Field, TypeAdapter, ValidationError, ValidationInfo, field_validator,
-                      model_validator)
+from pydantic import (
+    BeforeValidator,
+    Field,
+    TypeAdapter,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 from ..shading.metals import METALS
-from .diagnostics import _FieldError
-from .fields import Albedo, Radiance, _Model, _fixed_list, _texture_file
+from .diagnostics import FieldError
+from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
 
 
-class ImageTexture(_Model):
+class ImageTexture(StrictModel):
     """An image used as a colour (mcpt/shading/texture.py), addressed by the mesh's UVs.
 
     8-bit images are sRGB-encoded and decoded to linear RGB; the alpha channel is ignored. UV
@@ -31,7 +38,7 @@ class ImageTexture(_Model):
     @field_validator("file", mode="before")
     @classmethod
     def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
-        return _texture_file(value, info)
+        return texture_file(value, info)
 
 
 def _texture_shorthand(value: Any) -> Any:
@@ -57,12 +64,12 @@ def _colour_or_texture(value: Any, info: ValidationInfo) -> Any:
 _Positive = Annotated[float, Field(gt=0.0, le=100.0)]
 _NonNegative = Annotated[float, Field(ge=0.0, le=100.0)]
 #: The real part of a complex index of refraction, per RGB channel (dimensionless, > 0).
-Eta = Annotated[tuple[_Positive, _Positive, _Positive], _fixed_list(3)]
+Eta = Annotated[tuple[_Positive, _Positive, _Positive], fixed_list(3)]
 #: The extinction coefficient (imaginary part), per RGB channel (dimensionless, >= 0).
-Extinction = Annotated[tuple[_NonNegative, _NonNegative, _NonNegative], _fixed_list(3)]
+Extinction = Annotated[tuple[_NonNegative, _NonNegative, _NonNegative], fixed_list(3)]
 
 
-class Absorption(_Model):
+class Absorption(StrictModel):
     """Beer-Lambert absorption inside a dielectric: light that travels ``distance`` through the
     medium keeps the fraction ``color`` of itself (sigma_a = -ln(color) / distance)."""
 
@@ -72,7 +79,7 @@ class Absorption(_Model):
             Annotated[float, Field(gt=0.0, le=1.0)],
             Annotated[float, Field(gt=0.0, le=1.0)],
         ],
-        _fixed_list(3),
+        fixed_list(3),
     ]
     """Transmittance after ``distance``, linear RGB, each in (0, 1]."""
     distance: Annotated[float, Field(gt=0.0)]
@@ -91,7 +98,7 @@ _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fres
              "metal", "specular_reflectance", "two_sided")
 
 
-class Material(_Model):
+class Material(StrictModel):
     """A surface material (GLSL: glsl/bsdf_<type>.glsl; table: mcpt/shading/materials.py).
 
     * ``diffuse``: Lambertian, reflectance ``albedo`` (or ``albedo_texture``).
@@ -160,11 +167,11 @@ class Material(_Model):
         for key in _OPTIONAL:
             if key in self.model_fields_set and key not in allowed:
                 users = [t for t, keys in MATERIAL_KEYS.items() if key in keys]
-                raise _FieldError(
+                raise FieldError(
                     (key,), f"a {self.type} material has no {key} (it is a parameter of: {', '.join(users)})"
                 )
         if self.albedo is not None and self.albedo_texture is not None:
-            raise _FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
+            raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
         if self.type == "conductor":
             self._check_fresnel()
         return self
@@ -185,21 +192,21 @@ class Material(_Model):
         given = self.model_fields_set
         if mode == "conductor":
             if self.metal is not None and (self.eta is not None or self.k is not None):
-                raise _FieldError(("metal",), "give metal or eta and k, not both")
+                raise FieldError(("metal",), "give metal or eta and k, not both")
             if self.metal is None and (self.eta is None or self.k is None):
                 missing = "k" if self.eta is not None else "eta"
-                raise _FieldError((missing,), f"fresnel: conductor needs eta and k (RGB), or a metal "
+                raise FieldError((missing,), f"fresnel: conductor needs eta and k (RGB), or a metal "
                                               f"({', '.join(METALS)})")
         else:
             for key in ("eta", "k", "metal"):
                 if key in given:
-                    raise _FieldError((key,), f"{key} is a parameter of fresnel: conductor, not {mode}")
+                    raise FieldError((key,), f"{key} is a parameter of fresnel: conductor, not {mode}")
         if mode != "schlick":
             for key in ("albedo", "albedo_texture"):
                 if key in given:
-                    raise _FieldError((key,), f"with fresnel: {mode} the conductor's colour is "
+                    raise FieldError((key,), f"with fresnel: {mode} the conductor's colour is "
                                               f"specular_reflectance, not {key} (Schlick's F0)")
         elif isinstance(self.specular_reflectance, ImageTexture):
-            raise _FieldError(("specular_reflectance",), "with fresnel: schlick the texture is "
+            raise FieldError(("specular_reflectance",), "with fresnel: schlick the texture is "
                                                          "albedo_texture (F0); specular_reflectance is RGB")
 

@@ -10,7 +10,7 @@ so an editor can jump to it. The line comes from a custom YAML loader that remem
 mapping key and sequence item was written; pydantic's error location (``loc``) is mapped back onto
 it.
 
-Units and conventions (see /work/shared/scenes-ref/*/scene.json ``conventions``):
+Units and conventions (the same as the Mitsuba reference scenes mcpt is compared against):
 
 * Coordinates are right-handed, y up, arbitrary world units.
 * Colours are linear RGB. ``albedo`` is a reflectance in [0, 1]; ``emission`` is emitted radiance
@@ -42,13 +42,13 @@ from pydantic import (
 )
 
 from ..shading.camera import orthonormal
-from .diagnostics import _FieldError, _to_scene_error
-from .fields import Resolution, Vec3, _list_to_tuple, _Model, _none_is_absent, _scene_path
+from .diagnostics import FieldError, dotted, line_of, to_scene_error
+from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent, scene_path
 from .materials import Material
 from .transform import Transform
 
 
-class Camera(_Model):
+class Camera(StrictModel):
     """Pinhole camera.
 
     Rays follow scene.json's ``camera_ray`` convention: ``f = normalize(look_at - position)``,
@@ -85,18 +85,18 @@ class Camera(_Model):
         f = np.subtract(self.look_at, self.position, dtype=np.float64)
         f_len = float(np.linalg.norm(f))
         if f_len == 0.0:
-            raise _FieldError(("look_at",), "look_at equals position, so there is no view direction")
+            raise FieldError(("look_at",), "look_at equals position, so there is no view direction")
         up = np.asarray(self.up, dtype=np.float64)
         up_len = float(np.linalg.norm(up))
         if up_len == 0.0:
-            raise _FieldError(("up",), "up is the zero vector")
+            raise FieldError(("up",), "up is the zero vector")
         # sin of the angle between the two; below ~1e-6 rad the right vector is numerically garbage.
         if np.linalg.norm(np.cross(f / f_len, up / up_len)) < 1e-6:
-            raise _FieldError(("up",), "up is parallel to the view direction (look_at - position)")
+            raise FieldError(("up",), "up is parallel to the view direction (look_at - position)")
         return self
 
 
-class RenderSettings(_Model):
+class RenderSettings(StrictModel):
     """Render defaults; each can be overridden from the command line (:meth:`Scene.with_overrides`)."""
 
     spp: Annotated[int, Field(ge=1, le=2**32 - 1)] = 64
@@ -108,7 +108,7 @@ class RenderSettings(_Model):
 
 
 
-class Mesh(_Model):
+class Mesh(StrictModel):
     """One OBJ file placed in the scene."""
 
     file: Path
@@ -121,7 +121,7 @@ class Mesh(_Model):
     @field_validator("file", mode="before")
     @classmethod
     def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
-        return _scene_path(value, info)
+        return scene_path(value, info)
 
     @field_validator("file", mode="after")
     @classmethod
@@ -138,23 +138,23 @@ class Mesh(_Model):
         return Transform() if value is None else value
 
 
-class Scene(_Model):
+class Scene(StrictModel):
     """The root of a scene file. Build it with :func:`load_scene` / :func:`parse_scene`."""
 
     name: str | None = None
     """Free-form scene name (for logs / output names)."""
     camera: Camera
-    render: Annotated[RenderSettings, _none_is_absent(RenderSettings)] = RenderSettings()
+    render: Annotated[RenderSettings, none_is_absent(RenderSettings)] = RenderSettings()
     """Render defaults (spp 64, bounces 8, seed 0)."""
     materials: Annotated[
         dict[str, Material],
-        _none_is_absent(dict),
+        none_is_absent(dict),
         # Read-only view, so the frozen Scene is immutable all the way down.
         AfterValidator(MappingProxyType),
         WrapSerializer(lambda value, handler: handler(dict(value))),
     ] = Field(default_factory=lambda: MappingProxyType({}))
     """Material name -> material (a read-only mapping)."""
-    meshes: Annotated[tuple[Mesh, ...], BeforeValidator(_list_to_tuple), Field(min_length=1)]
+    meshes: Annotated[tuple[Mesh, ...], BeforeValidator(list_to_tuple), Field(min_length=1)]
     """The meshes, at least one (required)."""
 
     _source: Path | None = PrivateAttr(default=None)
@@ -165,10 +165,17 @@ class Scene(_Model):
         for i, mesh in enumerate(self.meshes):
             if mesh.material is not None and mesh.material not in self.materials:
                 defined = ", ".join(sorted(self.materials)) or "none"
-                raise _FieldError(
+                raise FieldError(
                     ("meshes", i, "material"),
                     f"undefined material {mesh.material!r} (defined: {defined})",
                 )
+        return self
+
+    def located(self, source: Path, lines: dict) -> Scene:
+        """This scene, told the file it was read from and the line of every key (the reader's
+        ``KeyPath -> line`` map), for :meth:`where`. Returns ``self``."""
+        self._source = source
+        self._lines = dict(lines)
         return self
 
     @property
@@ -179,11 +186,9 @@ class Scene(_Model):
     def where(self, *key) -> str:
         """``file:line: key.path`` of a key of this scene, for errors found after validation
         (a mesh that Assimp cannot read, a texture that is not an image)."""
-        from .diagnostics import _dotted, _line_of
-
-        line = _line_of(self._lines, key) if self._lines else None
+        line = line_of(self._lines, key) if self._lines else None
         file = str(self._source) if self._source is not None else "<scene>"
-        return f"{file}:{line}: {_dotted(key)}" if line else f"{file}: {_dotted(key)}"
+        return f"{file}:{line}: {dotted(key)}" if line else f"{file}: {dotted(key)}"
 
     def with_overrides(
         self,
@@ -218,12 +223,8 @@ class Scene(_Model):
         try:
             scene = Scene.model_validate(data)
         except ValidationError as exc:
-            raise _to_scene_error(exc, source, {}, note="(override)") from None
+            raise to_scene_error(exc, source, {}, Scene, note="(override)") from None
         scene._source = self._source
         scene._lines = self._lines
         return scene
 
-
-
-
-#: A key path as pydantic reports it, stringified: ("meshes", "2", "material").

@@ -8,7 +8,7 @@ from pathlib import Path
 import yaml
 from pydantic import ValidationError
 
-from .diagnostics import SceneError, _dotted, _KeyPath, _to_scene_error, _type_name
+from .diagnostics import KeyPath, SceneError, dotted, to_scene_error, type_name
 from .model import Scene
 from .overrides import apply as apply_overrides
 from .overrides import blame
@@ -53,7 +53,7 @@ class _SceneLoader(yaml.SafeLoader):
         super().__init__(stream)
         self.file = file
         #: key path -> 1-based line of the mapping key / sequence item; () -> the document start.
-        self.lines: dict[_KeyPath, int] = {}
+        self.lines: dict[KeyPath, int] = {}
 
     def compose_indexed(self) -> yaml.Node | None:
         """The document's root node (None for an empty document), with :attr:`lines` filled."""
@@ -67,7 +67,7 @@ class _SceneLoader(yaml.SafeLoader):
             self._index(node, (), set())
         return node
 
-    def _index(self, node: yaml.Node, path: _KeyPath, seen: set[int]) -> None:
+    def _index(self, node: yaml.Node, path: KeyPath, seen: set[int]) -> None:
         # An alias is the *same* node object as its anchor: walk it once, which keeps the walk
         # linear (no "billion laughs") and finite for recursive aliases. Keys under an alias then
         # fall back to the line where the alias is used, which is where the user should look.
@@ -93,7 +93,7 @@ class _SceneLoader(yaml.SafeLoader):
                 ident = (key_node.tag, key)  # "spp" and spp are the same key; 1 and "1" are not
                 if ident in first:
                     raise SceneError(
-                        self.file, line, _dotted(path + (key,)),
+                        self.file, line, dotted(path + (key,)),
                         f"duplicate key {key!r} (first defined on line {first[ident]})",
                     )
                 first[ident] = line
@@ -148,7 +148,7 @@ def parse_scene(text: str, path: str | Path, overrides=()) -> Scene:
     if not isinstance(data, dict):
         raise SceneError(
             file, loader.lines.get(()), "",
-            f"the top level must be a mapping (camera:, meshes:, ...), got {_type_name(data)}",
+            f"the top level must be a mapping (camera:, meshes:, ...), got {type_name(data)}",
         )
     named = []
     if overrides:
@@ -156,10 +156,8 @@ def parse_scene(text: str, path: str | Path, overrides=()) -> Scene:
     try:
         scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
     except ValidationError as exc:
-        raise blame(_to_scene_error(exc, file, loader.lines), named, file) from None
-    scene._source = path
-    scene._lines = dict(loader.lines)
-    return scene
+        raise blame(to_scene_error(exc, file, loader.lines, Scene), named, file) from None
+    return scene.located(path, loader.lines)
 
 
 def load_scene(path: str | Path, overrides=()) -> Scene:

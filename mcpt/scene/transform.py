@@ -8,11 +8,11 @@ from typing import Annotated
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
-from .diagnostics import _FieldError
-from .fields import Matrix4, Vec3, _Model, _scalar_to_vec3
+from .diagnostics import FieldError
+from .fields import Matrix4, StrictModel, Vec3, scalar_to_vec3
 
 
-class Transform(_Model):
+class Transform(StrictModel):
     """Placement of a mesh: either translate/rotate/scale, or a full ``matrix``.
 
     Points are column vectors, ``p' = M p``, with ``M = T · Rz · Ry · Rx · S``: scale first, then
@@ -23,7 +23,7 @@ class Transform(_Model):
     """Offset, world units."""
     rotate_deg: Vec3 | None = None
     """Euler angles in degrees, applied about X, then Y, then Z (right-handed, counter-clockwise)."""
-    scale: Annotated[Vec3, BeforeValidator(_scalar_to_vec3)] | None = None
+    scale: Annotated[Vec3, BeforeValidator(scalar_to_vec3)] | None = None
     """Uniform factor or ``[sx, sy, sz]``; every factor nonzero (negative mirrors the mesh)."""
     rows: Matrix4 | None = Field(default=None, alias="matrix")
     """YAML key ``matrix``: 4x4 row-major affine matrix, last row ``[0, 0, 0, 1]``; excludes the
@@ -34,18 +34,18 @@ class Transform(_Model):
         if self.rows is not None:
             both = [k for k in ("translate", "rotate_deg", "scale") if getattr(self, k) is not None]
             if both:
-                raise _FieldError(("matrix",), f"matrix cannot be combined with {', '.join(both)}")
+                raise FieldError(("matrix",), f"matrix cannot be combined with {', '.join(both)}")
             m = np.asarray(self.rows, dtype=np.float64)
             if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
                 # Projective matrices would break normals and area-light sampling; affine only.
-                raise _FieldError(("matrix", 3), f"last row must be [0, 0, 0, 1], got {m[3].tolist()}")
+                raise FieldError(("matrix", 3), f"last row must be [0, 0, 0, 1], got {m[3].tolist()}")
             a = m[:3, :3]
             # Relative test, so a legitimately tiny (but well-conditioned) scale is still accepted.
             if abs(np.linalg.det(a)) <= 1e-12 * max(float(np.abs(a).max()), 1e-300) ** 3:
-                raise _FieldError(("matrix",), "matrix is singular (its 3x3 part has zero determinant)")
+                raise FieldError(("matrix",), "matrix is singular (its 3x3 part has zero determinant)")
         if self.scale is not None and 0.0 in self.scale:
             # A zero factor flattens the mesh: degenerate triangles, undefined normals.
-            raise _FieldError(("scale",), f"scale must be nonzero, got {list(self.scale)}")
+            raise FieldError(("scale",), f"scale must be nonzero, got {list(self.scale)}")
         return self
 
     def matrix(self) -> np.ndarray:

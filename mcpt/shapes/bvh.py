@@ -1,12 +1,13 @@
 """The bounding volume hierarchy: the tree record, its SAH cost and its GPU layout (glsl/bvh.glsl).
 
-The tree is built by mcpt/shapes/bvh_build.py (median splits, the axis chosen by SAH).
+The tree is built by mcpt/shapes/bvh_build.py (object-median splits, the axis and the leaves
+chosen by SAH, large triangles in a subtree of their own).
 
-GPU layout (`BVH.nodes`, (M, 8) uint32, row-major; upload with `nodes.tobytes()` into an
-RGBA32UI texture buffer, node i = texels 2i and 2i+1, read floats with uintBitsToFloat)::
+The tree record (`BVH.nodes`, (M, 8) uint32, row i = node i; the shader reads the GPU layouts
+below, built from it)::
 
-    texel 2i   = (bmin.x, bmin.y, bmin.z, a)      bmin/bmax: float32 bit patterns
-    texel 2i+1 = (bmax.x, bmax.y, bmax.z, b)
+    words 0-3 = (bmin.x, bmin.y, bmin.z, a)      bmin/bmax: float32 bit patterns
+    words 4-7 = (bmax.x, bmax.y, bmax.z, b)
     leaf:      a = first triangle (index into the REORDERED triangles), b = count | 0x80000000
     interior:  left child = i + 1 (depth-first pre-order), a = right child index,
                b = split axis (0 = x, 1 = y, 2 = z); b < 0x80000000 tells it is interior
@@ -43,7 +44,7 @@ __all__ = [
 #: 2^60 triangles, so this never fires in practice).
 MAX_STACK = 64
 
-#: Top bit of texel1.w marks a leaf; the remaining 31 bits hold the triangle count.
+#: Top bit of word 7 (b) marks a leaf; the remaining 31 bits hold the triangle count.
 LEAF_FLAG = 0x80000000
 #: Triangles per leaf the GPU traversal handles (glsl/bvh.glsl BVH_MAX_LEAF, unrolled there).
 GPU_MAX_LEAF = 4

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+
 def first_of_duplicates(faces: np.ndarray) -> np.ndarray:
     """Sorted indices of the first occurrence of every triangle, equal up to a cyclic rotation
     of its corners (index based: Assimp's JoinIdenticalVertices gives equal corners equal indices)."""

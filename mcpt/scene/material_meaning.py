@@ -1,0 +1,249 @@
+"""What a mesh's materials mean: the scene's material and the mesh file's own, resolved into rows of
+the material table (mcpt/shading/materials.py) with the textures they read.
+
+Two descriptions meet here, each turned into a :class:`MaterialRow` by its own function:
+
+* the mesh file's materials (:func:`file_row`): what a reader found in the file, as
+  ``MeshMaterial`` (mcpt/shapes/raw_mesh.py): an OBJ's MTL ``Kd`` / ``map_Kd`` / ``Ke`` /
+  ``map_Ke`` today; a glTF material's baseColor / emissive factors and textures map onto the same
+  fields. They describe a diffuse surface.
+* the scene's material (:func:`scene_row`, a :class:`~mcpt.scene.materials.Material` from the YAML;
+  a Mitsuba XML BSDF is meant to become one too): it wins key by key, and where it is silent
+  the file's colours show through (:func:`albedo_from_file`; emission likewise).
+
+A new format adds its mapping beside these two (a ``<format>_row`` function, or a conversion into
+``Material`` / ``MeshMaterial``); :class:`MaterialResolver` keys, deduplicates and numbers the rows.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..shading.materials import MaterialTable
+from ..shading.texture import Texture, TextureError, load_texture
+from .materials import ImageTexture, Material
+from .model import Mesh, Scene
+
+log = logging.getLogger("mcpt")
+
+DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # when neither the YAML nor the mesh file gives one
+BLACK = (0.0, 0.0, 0.0)
+RGB = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class TextureRef:
+    """Where a texture comes from: a YAML ImageTexture or an MTL ``map_Kd`` / ``map_Ke``."""
+
+    file: Path
+    wrap: str = "repeat"
+    filter: str = "bilinear"
+
+
+@dataclass(frozen=True)
+class MaterialRow:
+    """One row of the material table (column meanings: mcpt/shading/materials.py)."""
+
+    name: str
+    type: str
+    albedo: RGB
+    emission: RGB
+    alpha: float = 0.0
+    ior: float = 1.5
+    texture: int = -1
+    smooth: bool = False
+    sigma_a: RGB = BLACK
+    fresnel: str = "schlick"
+    spec: RGB = (1.0, 1.0, 1.0)
+    eta: RGB = (1.0, 1.0, 1.0)
+    k: RGB = BLACK
+    one_sided: bool = False
+
+
+def absorption_sigma(ym: Material) -> RGB:
+    """The absorption coefficient per unit length of a dielectric's ``absorption``.
+
+    Beer-Lambert: light that travels d through the medium keeps exp(-sigma_a d) of itself
+    (pbrt-v4, section 11.1.1), so the fraction ``color`` kept after ``distance`` gives
+    sigma_a = -ln(color) / distance per channel."""
+    if ym.absorption is None:
+        return BLACK
+    a = ym.absorption
+    return tuple(-np.log(np.asarray(a.color, np.float64)) / a.distance)
+
+
+def conductor_columns(ym: Material | None) -> dict:
+    """The conductor's Fresnel columns of the table: mode, Schlick's lobe scale, complex index."""
+    cols = {"fresnel": "schlick", "spec": (1.0, 1.0, 1.0), "eta": (1.0, 1.0, 1.0), "k": BLACK}
+    if ym is None or ym.type != "conductor":
+        return cols
+    cols["fresnel"] = ym.fresnel_mode
+    rgb = ym.specular_reflectance if isinstance(ym.specular_reflectance, tuple) else None
+    if cols["fresnel"] == "schlick" and rgb is not None:
+        cols["spec"] = rgb
+    if cols["fresnel"] == "conductor":
+        cols["eta"], cols["k"] = ym.complex_ior()
+    return cols
+
+
+def albedo_from_file(ym: Material | None) -> bool:
+    """Whether the mesh file's Kd / map_Kd gives this YAML material its albedo (it is silent on it)."""
+    if ym is None:
+        return True
+    if ym.albedo is not None or ym.albedo_texture is not None or ym.type == "dielectric":
+        return False
+    return ym.type != "conductor" or ym.fresnel_mode == "schlick"
+
+
+def file_row(name: str, kd: RGB, ke: RGB) -> MaterialRow:
+    """A mesh file's material alone: a diffuse surface of reflectance ``kd`` emitting ``ke``."""
+    return MaterialRow(name, "diffuse", kd, ke)
+
+
+def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
+    """The scene's material ``ym``, the file's reflectance ``kd`` and emission ``ke`` where it is
+    silent."""
+    albedo = tuple(ym.albedo) if ym.albedo is not None else kd
+    if ym.type == "dielectric":
+        albedo = (1.0, 1.0, 1.0)  # unused: glass has no albedo
+    elif ym.type == "conductor" and ym.fresnel_mode != "schlick":
+        # The albedo slot holds the lobe scale (specular_reflectance, texturable).
+        rgb = ym.specular_reflectance
+        albedo = tuple(rgb) if isinstance(rgb, tuple) else (1.0, 1.0, 1.0)
+    emission = tuple(ym.emission) if ym.emission is not None else ke
+    return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
+                       smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
+                       one_sided=not ym.two_sided, **conductor_columns(ym))
+
+
+class MaterialResolver:
+    """The material table of a scene being loaded: rows keyed and numbered as the meshes come,
+    and the textures they read (each image loaded once per wrap and filter)."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        self.rows: list[MaterialRow] = []
+        self.textures: list[Texture] = []
+        self._index: dict = {}
+        self._texture_index: dict = {}
+
+    def yaml_material(self, spec: Mesh) -> Material | None:
+        return self.scene.materials[spec.material] if spec.material is not None else None
+
+    def needs_normals(self, spec: Mesh) -> bool:
+        """Whether the mesh's material shades with vertex normals (read them)."""
+        ym = self.yaml_material(spec)
+        return bool(ym is not None and ym.smooth_normals)
+
+    def needs_uvs(self, spec: Mesh, file_materials) -> bool:
+        """Whether some material of the mesh reads a texture (read UVs)."""
+        if self._yaml_texture(spec) is not None:
+            return True
+        return albedo_from_file(self.yaml_material(spec)) and any(m.kd_map is not None for m in file_materials)
+
+    def mesh_ids(self, mi: int, spec: Mesh, file_materials) -> np.ndarray:
+        """The table id of each of the mesh's file materials (``MeshMaterial``), rows added as needed."""
+        ym = self.yaml_material(spec)
+        mesh_where = self.scene.where("meshes", mi, "file")
+        yaml_tex = self._yaml_texture(spec)
+        from_file = albedo_from_file(ym)
+        ids = np.empty(len(file_materials), np.int32)
+        for j, mm in enumerate(file_materials):
+            kd = tuple(mm.kd) if mm.kd is not None else DEFAULT_ALBEDO
+            ke = tuple(mm.ke) if mm.ke is not None else BLACK
+            kd_map = self._file_texture(mesh_where, spec, mm, mm.kd_map) if from_file else None
+            if ym is None or ym.emission is None:
+                ke = _file_emission(spec.file, mm, ke, self._file_texture(mesh_where, spec, mm, mm.ke_map))
+            tex, tex_where = yaml_tex if yaml_tex is not None else (
+                kd_map, f"{mesh_where}: {spec.file}: material {mm.name!r}")
+            tex_key = str(tex.file) if tex is not None else None
+            if ym is None:
+                key = ("mtl", str(spec.file), mm.name)
+                ids[j] = self._add(key, file_row(mm.name, kd, ke), tex, tex_where)
+                continue
+            # One row per YAML material, unless the file's colours show through it.
+            full = not from_file and ym.emission is not None
+            key = (spec.material,) if full else (spec.material, kd, ke, tex_key)
+            ids[j] = self._add(key, scene_row(spec.material, ym, kd, ke), tex, tex_where)
+        return ids
+
+    def table(self) -> MaterialTable:
+        rows = self.rows
+
+        def rgb(attr):
+            return np.asarray([getattr(r, attr) for r in rows], np.float64).reshape(-1, 3)
+
+        def col(attr, dtype):
+            return np.asarray([getattr(r, attr) for r in rows], dtype)
+
+        return MaterialTable(tuple(r.name for r in rows), tuple(r.type for r in rows),
+                             np.asarray([r.albedo for r in rows], np.float64),
+                             np.asarray([r.emission for r in rows], np.float64),
+                             alpha=col("alpha", np.float64), ior=col("ior", np.float64),
+                             texture=col("texture", np.int64), smooth=col("smooth", bool),
+                             sigma_a=rgb("sigma_a"), fresnel=tuple(r.fresnel for r in rows),
+                             spec=rgb("spec"), eta=rgb("eta"), k=rgb("k"),
+                             one_sided=col("one_sided", bool))
+
+    def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
+        """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
+        if key not in self._index:
+            self._index[key] = len(self.rows)
+            if tex is not None:
+                t = self._texture_id(tex, tex_where)
+                # The albedo column is informative only for a textured row: the shader reads texels.
+                row = replace(row, texture=t, albedo=tuple(self.textures[t].mean_linear()))
+            self.rows.append(row)
+        return self._index[key]
+
+    def _texture_id(self, ref, where: str) -> int:
+        key = (str(ref.file), ref.wrap, ref.filter)
+        if key not in self._texture_index:
+            try:
+                texture = load_texture(ref.file, ref.wrap, ref.filter)
+            except TextureError as exc:  # name the scene line and key, not only the image
+                raise TextureError(f"{where}: {exc}") from None
+            self._texture_index[key] = len(self.textures)
+            self.textures.append(texture)
+        return self._texture_index[key]
+
+    def _yaml_texture(self, spec: Mesh) -> tuple[ImageTexture, str] | None:
+        """The YAML material's image (albedo_texture, or a conductor's specular_reflectance) and
+        where the scene names it."""
+        ym, name = self.yaml_material(spec), spec.material
+        if ym is None:
+            return None
+        if ym.albedo_texture is not None:
+            return ym.albedo_texture, self.scene.where("materials", name, "albedo_texture")
+        if ym.type == "conductor" and isinstance(ym.specular_reflectance, ImageTexture):
+            return ym.specular_reflectance, self.scene.where("materials", name, "specular_reflectance")
+        return None
+
+    @staticmethod
+    def _file_texture(mesh_where: str, spec: Mesh, mm, tmap) -> TextureRef | None:
+        """A mesh file's texture map as a reference; one line if the image is missing."""
+        if tmap is None:
+            return None
+        if not tmap.file.is_file():
+            raise TextureError(f"{mesh_where}: {spec.file}: material {mm.name!r} of {tmap.declared_in}: "
+                               f"{tmap.keyword} texture not found: {tmap.file}")
+        return TextureRef(tmap.file)
+
+
+def _file_emission(mesh_file: Path, mm, ke: RGB, ref: TextureRef | None) -> RGB:
+    """A mesh file's emission: ``Ke``, times the mean of ``map_Ke`` when there is one (Ke 1 if
+    undeclared). Emission textures are not supported: the texture's mean keeps the emitted power,
+    and a warning says so."""
+    if ref is None:
+        return ke
+    mean = load_texture(ref.file).mean_linear()
+    base = np.asarray(ke if mm.ke is not None else (1.0, 1.0, 1.0), np.float64)
+    out = tuple(float(x) for x in base * mean)
+    log.warning("%s: material %r: map_Ke %s: emission textures are not supported; it emits the "
+                "texture's mean %s uniformly", mesh_file, mm.name, ref.file,
+                "(" + ", ".join(f"{x:.3g}" for x in out) + ")")
+    return out
