@@ -29,7 +29,8 @@ from . import geometry, obj
 from .bvh import BVH
 from .bvh_build import build_bvh
 from .dedup import first_of_duplicates
-from .mesh import MeshError, load_mesh
+from .mesh import MeshError
+from .sources import load_source  # issue #19: files, .serialized, primitives
 
 log = logging.getLogger("mcpt")
 
@@ -164,7 +165,7 @@ def load_world(scene: Scene) -> World:
     dropped = dropped_dup = 0
     for mi, spec in enumerate(scene.meshes):
         ym = scene.materials[spec.material] if spec.material is not None else None
-        is_obj = spec.file.suffix.lower() == ".obj"
+        is_obj = spec.file is not None and spec.file.suffix.lower() == ".obj"  # issue #19: shapes
         maps = obj.mtl_textures(spec.file) if is_obj else {}
         need_normals = bool(ym is not None and ym.smooth_normals)
         yaml_tex = None
@@ -175,8 +176,8 @@ def load_world(scene: Scene) -> World:
         mtl_albedo = _albedo_from_mtl(ym)
         need_uvs = yaml_tex is not None or (mtl_albedo and any("map_kd" in m for m in maps.values()))
         try:
-            mesh = load_mesh(spec.file, spec.transform.matrix(), need_normals=need_normals,
-                             need_uvs=need_uvs)
+            mesh = load_source(spec, spec.transform.matrix(), need_normals=need_normals,  # issue #19
+                               need_uvs=need_uvs)
         except MeshError as exc:  # name the scene line and key too, not only the mesh file
             raise MeshError(f"{scene.where('meshes', mi, 'file')}: {exc}") from None
         dropped += mesh.dropped_degenerate
