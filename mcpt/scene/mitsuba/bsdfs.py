@@ -10,8 +10,7 @@ sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_s
 from __future__ import annotations
 
 import logging
-from pathlib import Path
-
+from ...shading.materials import fdr_internal
 from ...shading.metals import METALS
 from ..fields import TEXTURE_SUFFIXES
 from . import values as V
@@ -53,14 +52,6 @@ def _relative_ior(props: dict[str, Node], node: Node, int_default: str) -> float
                     "ratio int_ior/ext_ior = %.4g (exact for this interface alone)",
                     node.file, node.line, node.label, ext_ior, int_ior / ext_ior)
     return int_ior / ext_ior
-
-
-def _colour_or_texture(props, key, default, ids, allow_texture=True) -> dict:
-    """``{"albedo": rgb}`` or ``{"albedo_texture": {...}}`` for a colour parameter."""
-    ref = props.get(key)
-    if ref is None:
-        return {"albedo": [default] * 3}
-    return {"albedo": list(V.as_color(ref))}
 
 
 def texture(node: Node) -> dict:
@@ -158,6 +149,20 @@ def _rough(bsdf: Node, props: dict[str, Node]) -> float:
     return alpha
 
 
+def _linear_plastic(out: dict, bsdf: Node) -> dict:
+    """Mitsuba's default plastic (``nonlinear=false``) scales the base by 1 / (1 - Fdr) where
+    mcpt's (Mitsuba's ``nonlinear=true``, glsl/bsdf_plastic.glsl) divides by (1 - A Fdr); the
+    albedo A' = A / (1 - Fdr + Fdr A) makes the two equal exactly (A' <= 1 for A <= 1). A texture
+    cannot be remapped per texel here: approximated with a warning."""
+    f = fdr_internal(out["ior"])
+    if "albedo" in out:
+        out["albedo"] = [a / (1.0 - f + f * a) for a in out["albedo"]]
+    else:
+        log.warning("%s:%d: %s: a textured plastic with nonlinear=false is approximated by "
+                    "nonlinear=true (mcpt's plastic): its base is darker", bsdf.file, bsdf.line, bsdf.label)
+    return out
+
+
 def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
     """The mcpt material dict of a ``<bsdf>`` (a ref followed); one located error if refused."""
     bsdf = deref(bsdf, ids)
@@ -186,10 +191,11 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
         return {"type": "dielectric", "ior": ior}
     elif kind == "plastic":
         _no(props, bsdf, "specular_reflectance")
-        if "nonlinear" in props and V.as_bool(props["nonlinear"]):
-            raise props["nonlinear"].error("nonlinear=true is not supported by mcpt")
         ior = _relative_ior(props, bsdf, "polypropylene")
         out = {"type": "plastic", "ior": ior, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids)}
+        nonlinear = V.as_bool(props["nonlinear"]) if "nonlinear" in props else False
+        if not nonlinear:
+            out = _linear_plastic(out, bsdf)
     else:
         raise bsdf.error(f"not supported by mcpt (supported: {', '.join(SUPPORTED)})")
     out["two_sided"] = two_sided

@@ -29,7 +29,8 @@ log = logging.getLogger("mcpt")
 
 #: Top-level objects mcpt maps, and those it reads only through references.
 TOP_LEVEL = ("sensor", "integrator", "shape", "bsdf", "texture", "emitter")
-#: Mitsuba's material when a shape names none: a one-sided diffuse of reflectance 0.5.
+#: Mitsuba's material when a shape names none: a one-sided diffuse of reflectance 0.5 (0 when the
+#: shape emits: Mitsuba's Shape constructor).
 DEFAULT_MATERIAL = {"type": "diffuse", "albedo": [0.5, 0.5, 0.5], "two_sided": False}
 
 
@@ -84,6 +85,8 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     meshes = []
     for i, s in enumerate(shapes):
         mat = dict(bsdfs.material(s.bsdf, tree.ids)) if s.bsdf is not None else dict(DEFAULT_MATERIAL)
+        if s.bsdf is None and s.radiance is not None:
+            mat["albedo"] = [0.0, 0.0, 0.0]  # Mitsuba: an emitter without a BSDF reflects nothing
         if s.radiance is not None and any(s.radiance):
             mat["emission"] = list(s.radiance)
         if s.smooth:
