@@ -161,7 +161,7 @@ def test_unknown_key():
 
 def test_unknown_key_in_list_item():
     text = edit("    material: lamp", "    material: lamp\n    colour: red")
-    assert_scene_error(text, line_of(text, "colour"), "meshes.2.colour", "unknown key", "allowed: file, material, transform")
+    assert_scene_error(text, line_of(text, "colour"), "meshes.2.colour", "unknown key", "allowed: file, shape, shape_index, flip_normals, material, transform")
 
 
 def test_string_for_int():

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from types import MappingProxyType
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import (
@@ -109,10 +109,29 @@ class RenderSettings(StrictModel):
 
 
 class Mesh(StrictModel):
-    """One OBJ file placed in the scene."""
+    """One mesh file (or, issue #19, an analytic ``shape``) placed in the scene."""
 
-    file: Path
-    """Absolute path of the OBJ. In YAML: relative to the YAML file's folder, or absolute."""
+    file: Path | None = None
+    """Absolute path of the OBJ (any Assimp format, or a Mitsuba ``.serialized``). In YAML:
+    relative to the YAML file's folder, or absolute. Exactly one of ``file`` and ``shape``."""
+    # --- issue #19 (Mitsuba 3 scenes): analytic shapes, .serialized shapes, flipped fronts ---
+    shape: Literal["rectangle", "cube", "disk", "sphere", "cylinder"] | None = None
+    """An analytic shape in Mitsuba's own frame, tessellated (mcpt/shapes/primitives.py):
+    rectangle [-1,1]^2 at z=0 facing +z, cube [-1,1]^3, unit disk at z=0, unit sphere, open unit
+    cylinder 0<=z<=1; placed by ``transform``."""
+    shape_index: Annotated[int, Field(ge=0)] | None = None
+    """Which shape of a ``.serialized`` file (default 0)."""
+    flip_normals: bool = False
+    """Turn the front side round (reversed winding): Mitsuba's ``flip_normals``."""
+
+    @model_validator(mode="after")
+    def _one_source(self) -> Mesh:
+        if (self.file is None) == (self.shape is None):
+            raise FieldError(("file",), "give a mesh file or a shape (exactly one)")
+        if self.shape_index is not None and (self.file is None or self.file.suffix.lower() != ".serialized"):
+            raise FieldError(("shape_index",), "shape_index is for .serialized files only")
+        return self
+    # --- end issue #19 ---
     material: str | None = None
     """Name of an entry of ``Scene.materials``; None = use the OBJ's own MTL materials."""
     transform: Transform = Transform()
@@ -125,7 +144,9 @@ class Mesh(StrictModel):
 
     @field_validator("file", mode="after")
     @classmethod
-    def _exists(cls, value: Path) -> Path:
+    def _exists(cls, value: Path | None) -> Path | None:
+        if value is None:  # issue #19: a shape instead of a file
+            return value
         if not value.exists():
             raise ValueError(f"mesh file not found: {value}")
         if not value.is_file():

@@ -164,6 +164,10 @@ def load_scene(path: str | Path, overrides=()) -> Scene:
     """Read and validate the scene file at ``path`` (``overrides``: ``-D KEY=VALUE`` texts).
     Raises :class:`SceneError`."""
     path = Path(path)
+    if path.suffix.lower() == ".xml":  # issue #19: a Mitsuba 3 scene, mapped onto the same schema
+        from .mitsuba import load_xml
+
+        return load_xml(path, overrides)
     try:
         if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
             raise SceneError(path, None, "", f"{path.stat().st_size} bytes is not a scene file "

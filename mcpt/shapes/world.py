@@ -30,6 +30,7 @@ from .bvh import BVH
 from .bvh_build import build_bvh
 from .dedup import first_of_duplicates
 from .mesh import Mesh, MeshError, assemble, read_geometry
+from .sources import flipped, source_of
 
 log = logging.getLogger("mcpt")
 
@@ -109,7 +110,9 @@ def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:
     spec = scene.meshes[mi]
     need_normals = resolver.needs_normals(spec)
     try:
-        raw = read_geometry(spec.file, need_normals=need_normals)
+        raw = read_geometry(source_of(spec), need_normals=need_normals)
+        if spec.flip_normals:
+            raw = flipped(raw)
         need_uvs = resolver.needs_uvs(spec, raw.materials)
         mesh = assemble(raw, spec.transform.matrix(), need_normals=need_normals, need_uvs=need_uvs)
     except MeshError as exc:  # name the scene line and key too, not only the mesh file

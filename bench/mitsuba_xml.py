@@ -1,0 +1,62 @@
+"""Peer side of the differential harness: run BY THE PEER VENV'S PYTHON (it imports mitsuba).
+
+    python bench/mitsuba_xml.py SCENE.xml OUT.npz --spp N --runs K --seed S [-D name=value ...]
+
+Loads the scene with ``mi.load_file(path, **defines)`` and renders it ``K`` times with seeds
+``S .. S+K-1`` at ``N/K`` samples each; writes the mean image and the variance of that mean
+(from the spread of the K runs) to ``OUT.npz`` and prints one JSON line: timings and settings.
+Not part of mcpt: bench/differential.py runs it as a subprocess (as bench/mitsuba.py does with
+../shared/tools/peer_mitsuba.py, whose libLLVM finder it reuses).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+# This file's folder (bench/) holds mitsuba.py, which would shadow the real package: drop it.
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scene")
+    ap.add_argument("out")
+    ap.add_argument("--spp", type=int, required=True)
+    ap.add_argument("--runs", type=int, default=4)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--tool", required=True, help="../shared/tools/peer_mitsuba.py (libLLVM finder)")
+    ap.add_argument("-D", dest="defines", action="append", default=[])
+    a = ap.parse_args()
+    sys.path.insert(0, str(Path(a.tool).parent))
+    from peer_mitsuba import _import_mitsuba  # noqa: E402  (sets DRJIT_LIBLLVM_PATH)
+
+    import numpy as np
+
+    mi, _dr, t_import = _import_mitsuba(a.variant)
+    params = dict(d.split("=", 1) for d in a.defines)
+    t0 = time.perf_counter()
+    scene = mi.load_file(a.scene, **params)
+    t_load = time.perf_counter() - t0
+    per_run = max(1, a.spp // a.runs)
+    images, seconds = [], 0.0
+    for k in range(a.runs):
+        t0 = time.perf_counter()
+        img = np.array(mi.render(scene, spp=per_run, seed=a.seed + k), np.float64)[..., :3]
+        seconds += time.perf_counter() - t0
+        images.append(img)
+    stack = np.stack(images)
+    mean = stack.mean(axis=0)
+    var_mean = stack.var(axis=0, ddof=1) / a.runs if a.runs > 1 else np.zeros_like(mean)
+    np.savez(a.out, mean=mean, var_mean=var_mean)
+    print(json.dumps({"spp": per_run * a.runs, "runs": a.runs, "render_seconds": seconds,
+                      "load_seconds": t_load, "import_seconds": t_import,
+                      "mitsuba_version": mi.__version__, "variant": a.variant}))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,202 @@
+"""Mitsuba 3 BSDFs -> mcpt materials (the same mapping a YAML ``materials:`` entry gives).
+
+Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX; Beckmann approximated by GGX of
+the same alpha with a warning), ``dielectric``, ``plastic``, ``twosided`` (one BSDF for both
+sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_sided: false``;
+``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
+(diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` texture.
+"""
+
+from __future__ import annotations
+
+import logging
+from ...shading.materials import fdr_internal
+from ...shading.metals import METALS
+from ..fields import TEXTURE_SUFFIXES
+from . import values as V
+from .xmltree import Node, deref
+
+log = logging.getLogger("mcpt")
+
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided")
+
+#: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
+IOR = {"vacuum": 1.0, "helium": 1.00004, "hydrogen": 1.00013, "air": 1.000277,
+       "carbon dioxide": 1.00045, "water": 1.333, "acetone": 1.36, "ethanol": 1.361,
+       "carbon tetrachloride": 1.461, "glycerol": 1.4729, "benzene": 1.501, "silicone oil": 1.52045,
+       "bromine": 1.661, "water ice": 1.31, "fused quartz": 1.458, "pyrex": 1.47,
+       "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046, "sodium chloride": 1.544,
+       "amber": 1.55, "pet": 1.575, "diamond": 2.419}
+#: |ext_ior - 1| below this counts as air (Mitsuba's default ext_ior is air, 1.000277).
+AIR_TOLERANCE = 1e-3
+
+
+def _ior(props: dict[str, Node], key: str, default: str) -> float:
+    node = props.get(key)
+    if node is None:
+        return IOR[default]
+    if node.tag == "string":
+        name = V.as_string(node).lower()
+        if name not in IOR:
+            raise node.error(f"unknown index of refraction {name!r} (known: {', '.join(IOR)})")
+        return IOR[name]
+    return V.as_float(node)
+
+
+def _relative_ior(props: dict[str, Node], node: Node, int_default: str) -> float:
+    """int_ior / ext_ior; mcpt's outside is air, so an ext_ior other than ~1 warns."""
+    int_ior = _ior(props, "int_ior", int_default)
+    ext_ior = _ior(props, "ext_ior", "air")
+    if abs(ext_ior - 1.0) > AIR_TOLERANCE:
+        log.warning("%s:%d: %s: ext_ior %.4g: mcpt's outside is air, so the interface uses the "
+                    "ratio int_ior/ext_ior = %.4g (exact for this interface alone)",
+                    node.file, node.line, node.label, ext_ior, int_ior / ext_ior)
+    return int_ior / ext_ior
+
+
+def texture(node: Node) -> dict:
+    """A ``bitmap`` texture as mcpt's ``albedo_texture``: 8-bit images are sRGB-decoded, which is
+    what Mitsuba does with ``raw=false`` (the default) for PNG/JPEG; ``raw=true`` is refused."""
+    if node.get("type") != "bitmap":
+        raise node.error("not supported by mcpt (supported textures: bitmap)")
+    props = V.properties(node)
+    if "filename" not in props:
+        raise node.error("a bitmap needs a filename (in-memory bitmaps cannot come from a file)")
+    path = (node.file.parent / V.as_string(props["filename"])).resolve()
+    if path.suffix.lower() not in TEXTURE_SUFFIXES:
+        raise props["filename"].error(f"{path.suffix or '(none)'} images are not supported by mcpt "
+                                      f"(8-bit formats: {', '.join(TEXTURE_SUFFIXES)})")
+    if "raw" in props and V.as_bool(props["raw"]):
+        raise props["raw"].error("raw=true is not supported by mcpt (8-bit images are read as sRGB)")
+    if "to_uv" in props:
+        raise props["to_uv"].error("texture coordinate transforms are not supported by mcpt")
+    out: dict = {"file": str(path)}
+    if "wrap_mode" in props:
+        wrap = V.as_string(props["wrap_mode"])
+        if wrap not in ("repeat", "mirror", "clamp"):
+            raise props["wrap_mode"].error(f"wrap_mode {wrap!r}: expected repeat, mirror or clamp")
+        out["wrap"] = wrap
+    if "filter_type" in props:
+        kind = V.as_string(props["filter_type"])
+        if kind not in ("bilinear", "nearest"):
+            raise props["filter_type"].error(f"filter_type {kind!r}: expected bilinear or nearest")
+        out["filter"] = kind
+    return out
+
+
+def _albedo(bsdf: Node, props, key, default, ids) -> dict:
+    """The albedo of a diffuse or plastic: a colour property, or a nested/referenced texture."""
+    for child in bsdf.children:
+        if child.tag in ("texture", "ref") and child.get("name", key) == key:
+            target = deref(child, ids)
+            if target.tag != "texture":
+                raise child.error(f"expected a texture, got <{target.tag}>")
+            return {"albedo_texture": texture(target)}
+    node = props.get(key)
+    rgb = V.as_color(node) if node is not None else (default,) * 3
+    if not all(0.0 <= c <= 1.0 for c in rgb):
+        raise node.error(f"{key} {rgb} out of [0, 1]: mcpt takes reflectances only")
+    return {"albedo": list(rgb)}
+
+
+def _no(props: dict[str, Node], bsdf: Node, *keys: str) -> None:
+    for key in keys:
+        if key in props:
+            raise props[key].error(f"{bsdf.get('type')} parameter {key} is not supported by mcpt")
+
+
+def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
+    out: dict = {"type": "conductor"}
+    if "eta" in props or "k" in props:
+        if "material" in props:
+            raise bsdf.error("give material or eta and k, not both")
+        out["eta"] = list(V.as_color(props["eta"])) if "eta" in props else [0.0] * 3
+        out["k"] = list(V.as_color(props["k"])) if "k" in props else [1.0] * 3
+        out["fresnel"] = "conductor"
+    else:
+        name = V.as_string(props["material"]) if "material" in props else "none"
+        if name == "none":
+            out["fresnel"] = "none"
+        elif name in METALS:
+            out["metal"] = name
+        else:
+            raise props["material"].error(f"conductor material {name!r} is not among mcpt's measured "
+                                          f"metals (none, {', '.join(METALS)}); give eta and k as <rgb>")
+    if "specular_reflectance" in props:
+        out["specular_reflectance"] = list(V.as_color(props["specular_reflectance"]))
+    return out
+
+
+def _rough(bsdf: Node, props: dict[str, Node]) -> float:
+    """The GGX alpha of a roughconductor (Beckmann approximated with a warning)."""
+    dist = V.as_string(props["distribution"]) if "distribution" in props else "beckmann"
+    if dist not in ("ggx", "beckmann"):
+        raise props["distribution"].error(f"distribution {dist!r}: expected ggx or beckmann")
+    if "alpha_u" in props or "alpha_v" in props:
+        au = V.as_float(props.get("alpha_u") or props["alpha_v"])
+        av = V.as_float(props.get("alpha_v") or props["alpha_u"])
+        if au != av:
+            raise (props.get("alpha_u") or bsdf).error("anisotropic roughness (alpha_u != alpha_v) is "
+                                                       "not supported by mcpt")
+        alpha = au
+    else:
+        alpha = V.as_float(props["alpha"]) if "alpha" in props else 0.1
+    if dist == "beckmann":
+        log.warning("%s:%d: %s: the Beckmann distribution is approximated by GGX of the same alpha "
+                    "%.4g (mcpt has GGX only)", bsdf.file, bsdf.line, bsdf.label, alpha)
+    if not 0.0 <= alpha <= 1.0:
+        raise (props.get("alpha") or bsdf).error(f"alpha {alpha} out of [0, 1]")
+    return alpha
+
+
+def _linear_plastic(out: dict, bsdf: Node) -> dict:
+    """Mitsuba's default plastic (``nonlinear=false``) scales the base by 1 / (1 - Fdr) where
+    mcpt's (Mitsuba's ``nonlinear=true``, glsl/bsdf_plastic.glsl) divides by (1 - A Fdr); the
+    albedo A' = A / (1 - Fdr + Fdr A) makes the two equal exactly (A' <= 1 for A <= 1). A texture
+    cannot be remapped per texel here: approximated with a warning."""
+    f = fdr_internal(out["ior"])
+    if "albedo" in out:
+        out["albedo"] = [a / (1.0 - f + f * a) for a in out["albedo"]]
+    else:
+        log.warning("%s:%d: %s: a textured plastic with nonlinear=false is approximated by "
+                    "nonlinear=true (mcpt's plastic): its base is darker", bsdf.file, bsdf.line, bsdf.label)
+    return out
+
+
+def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
+    """The mcpt material dict of a ``<bsdf>`` (a ref followed); one located error if refused."""
+    bsdf = deref(bsdf, ids)
+    if bsdf.tag != "bsdf":
+        raise bsdf.error("expected a <bsdf>")
+    kind = bsdf.get("type")
+    props = V.properties(bsdf)
+    if kind == "twosided":
+        inner = [c for c in bsdf.children if c.tag in ("bsdf", "ref")]
+        if len(inner) != 1:
+            raise bsdf.error("a twosided with a different BSDF per side is not supported by mcpt "
+                             "(give one nested BSDF)")
+        return material(inner[0], ids, two_sided=True)
+    if kind == "diffuse":
+        out = {"type": "diffuse", **_albedo(bsdf, props, "reflectance", 0.5, ids)}
+    elif kind in ("conductor", "roughconductor"):
+        out = _conductor(bsdf, props)
+        if kind == "roughconductor":
+            out["roughness"] = _rough(bsdf, props)
+    elif kind == "dielectric":
+        _no(props, bsdf, "specular_reflectance", "specular_transmittance")
+        ior = _relative_ior(props, bsdf, "bk7")
+        if not 1.0 <= ior <= 4.0:
+            raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range [1, 4] (the denser medium "
+                             "must be inside)")
+        return {"type": "dielectric", "ior": ior}
+    elif kind == "plastic":
+        _no(props, bsdf, "specular_reflectance")
+        ior = _relative_ior(props, bsdf, "polypropylene")
+        out = {"type": "plastic", "ior": ior, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids)}
+        nonlinear = V.as_bool(props["nonlinear"]) if "nonlinear" in props else False
+        if not nonlinear:
+            out = _linear_plastic(out, bsdf)
+    else:
+        raise bsdf.error(f"not supported by mcpt (supported: {', '.join(SUPPORTED)})")
+    out["two_sided"] = two_sided
+    return out

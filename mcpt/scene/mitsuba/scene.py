@@ -1,0 +1,126 @@
+"""A Mitsuba 3 scene file -> the plain data of an mcpt YAML scene (then validated as one).
+
+:func:`scene_data` walks the expanded tree (xmltree.py) and maps sensor, integrator, shapes,
+BSDFs and emitters (camera.py, shapes.py, bsdfs.py) onto the YAML schema of mcpt/scene/model.py.
+Materials are keyed by what they are: one entry per distinct (BSDF, two-sidedness, emitted
+radiance, smooth shading), named after the BSDF's ``id`` where it has one. The data is then
+validated by the same :class:`~mcpt.scene.Scene` model as a YAML file (:func:`load_xml`): the
+loader stays the only road from data to objects.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+from pydantic import ValidationError
+
+from ..diagnostics import to_scene_error
+from ..model import Scene
+from ..overrides import apply as apply_overrides
+from ..overrides import blame
+from . import bsdfs, camera
+from .shapes import ShapeOut, shape
+from .xmltree import Node, XmlError, deref, read_tree
+
+log = logging.getLogger("mcpt")
+
+#: Top-level objects mcpt maps, and those it reads only through references.
+TOP_LEVEL = ("sensor", "integrator", "shape", "bsdf", "texture", "emitter")
+#: Mitsuba's material when a shape names none: a one-sided diffuse of reflectance 0.5 (0 when the
+#: shape emits: Mitsuba's Shape constructor).
+DEFAULT_MATERIAL = {"type": "diffuse", "albedo": [0.5, 0.5, 0.5], "two_sided": False}
+
+
+def split_defines(overrides, path) -> tuple[dict[str, str], list[str]]:
+    """``-D`` texts as Mitsuba parameters (``name=value``) and mcpt scene-key overrides (a dotted
+    key such as ``camera.resolution=[64,64]``, applied to the converted data)."""
+    params, keys = {}, []
+    for text in overrides:
+        name, sep, value = text.partition("=")
+        if not sep or not name.strip():
+            raise XmlError(path, None, "", f"-D {text}: expected NAME=VALUE")
+        if "." in name:
+            keys.append(text)
+        else:
+            params[name.strip()] = value
+    return params, keys
+
+
+def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple[dict, dict]:
+    """(YAML-schema data, key path -> XML line) of the Mitsuba scene at ``path``."""
+    tree = read_tree(path, defines)
+    lines: dict[tuple[str, ...], int] = {(): tree.root.line}
+    sensor = None
+    integrator = None
+    shapes: list[ShapeOut] = []
+    for node in tree.root.children:
+        if node.tag not in TOP_LEVEL:
+            if node.tag in ("ref",):
+                continue
+            raise node.error(f"not supported by mcpt at the top level (supported: {', '.join(TOP_LEVEL)})")
+        if node.tag == "sensor":
+            if sensor is not None:
+                log.warning("%s:%d: %s: a second sensor; mcpt renders the first (line %d)",
+                            node.file, node.line, node.label, sensor.line)
+            else:
+                sensor = node
+        elif node.tag == "integrator":
+            integrator = node
+        elif node.tag == "shape":
+            shape(node, tree.ids, np.eye(4), shapes)
+        elif node.tag == "emitter":
+            raise node.error("not supported by mcpt (supported emitters: area, inside a <shape>)")
+    if sensor is None:
+        raise XmlError(path, tree.root.line, "<scene>", "no <sensor>: mcpt needs a perspective camera")
+    objects = [deref(c, tree.ids) for c in sensor.children if c.tag in ("film", "sampler", "ref")]
+    cam, render = camera.sensor(sensor, objects)
+    render["bounces"] = camera.integrator(integrator)
+    lines[("camera",)] = sensor.line
+    lines[("render",)] = (integrator or sensor).line
+    materials: dict[str, dict] = {}
+    by_value: dict[str, str] = {}
+    meshes = []
+    for i, s in enumerate(shapes):
+        mat = dict(bsdfs.material(s.bsdf, tree.ids)) if s.bsdf is not None else dict(DEFAULT_MATERIAL)
+        if s.bsdf is None and s.radiance is not None:
+            mat["albedo"] = [0.0, 0.0, 0.0]  # Mitsuba: an emitter without a BSDF reflects nothing
+        if s.radiance is not None and any(s.radiance):
+            mat["emission"] = list(s.radiance)
+        if s.smooth:
+            mat["smooth_normals"] = True
+        key = json.dumps(mat, sort_keys=True)
+        if key not in by_value:
+            base = (s.bsdf.get("id") if s.bsdf is not None else None) or (
+                f"{s.bsdf.get('type')}_{s.bsdf.line}" if s.bsdf is not None else "default")
+            name = base
+            n = 2
+            while name in materials:
+                name, n = f"{base}_{n}", n + 1
+            by_value[key] = name
+            materials[name] = mat
+            lines[("materials", name)] = (s.bsdf or s.node).line
+        meshes.append({**s.mesh, "material": by_value[key]})
+        lines[("meshes", str(i))] = s.node.line
+    if not meshes:
+        raise XmlError(path, tree.root.line, "<scene>", "no shapes: nothing to render")
+    name = Path(path).stem
+    return {"name": name, "camera": cam, "render": render, "materials": materials, "meshes": meshes}, lines
+
+
+def load_xml(path: str | Path, overrides=()) -> Scene:
+    """Read, map and validate a Mitsuba 3 scene (``overrides``: ``-D`` texts, see
+    :func:`split_defines`). Raises :class:`~mcpt.scene.SceneError` (one line)."""
+    path = Path(path)
+    params, keys = split_defines(overrides, path)
+    data, lines = scene_data(path, params)
+    named = []
+    if keys:
+        data, named = apply_overrides(data, keys, str(path))
+    try:
+        scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
+    except ValidationError as exc:
+        raise blame(to_scene_error(exc, str(path), lines, Scene), named, str(path)) from None
+    return scene.located(path, lines)
