@@ -33,9 +33,8 @@ def main() -> None:
     ap.add_argument("-D", dest="defines", action="append", default=[])
     a = ap.parse_args()
     sys.path.insert(0, str(Path(a.tool).parent))
-    from peer_mitsuba import _import_mitsuba  # noqa: E402  (sets DRJIT_LIBLLVM_PATH)
-
     import numpy as np
+    from peer_mitsuba import _import_mitsuba  # noqa: E402  (sets DRJIT_LIBLLVM_PATH)
 
     mi, _dr, t_import = _import_mitsuba(a.variant)
     params = dict(d.split("=", 1) for d in a.defines)

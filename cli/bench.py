@@ -15,6 +15,7 @@ from mcpt.gpu.context import BACKENDS
 
 from .group import main, reports_errors
 
+
 @main.command()
 @click.option("--quick/--full", default=True, show_default=True,
               help="Quick: small images, a few minutes in all. Full: 256x256, 1024-spp error sweep, "

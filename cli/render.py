@@ -65,7 +65,8 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
            workers, scheduler, progress_mode, as_json, quiet):
     """Render SCENE_FILE (YAML) to an image."""
     started = time.perf_counter()
-    from mcpt.api import Options, render as render_loop
+    from mcpt.api import Options
+    from mcpt.api import render as render_loop
     from mcpt.farm.signals import StopSignals
     from mcpt.gpu.aov import parse as parse_aovs
 

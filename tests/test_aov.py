@@ -294,8 +294,9 @@ def test_farm_renders_the_same_layers(folder):
     from distributed import Client
 
     from mcpt.farm.cluster import local_cluster
-    from mcpt.render import Options, render as run
     from mcpt.farm.signals import StopSignals
+    from mcpt.render import Options
+    from mcpt.render import render as run
 
     aovs = ("albedo", "normal", "depth", "variance")
     cluster = local_cluster(1, lp_threads=1)

@@ -14,8 +14,9 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from mcpt.render import Options, render as run  # noqa: E402
 from mcpt.farm.signals import StopSignals  # noqa: E402
+from mcpt.render import Options  # noqa: E402
+from mcpt.render import render as run
 
 from . import test_farm  # noqa: E402
 from .test_farm import same_bits  # noqa: E402

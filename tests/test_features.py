@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from mcpt.cli.main import main
 from mcpt.api import prepare
+from mcpt.cli.main import main
 from mcpt.scene import load_scene
 
 from .conftest import ROOT
@@ -113,8 +113,7 @@ def test_small_scenes_compile_their_triangle_count_in():
 
 
 def test_samples_per_draw_follow_the_image_size():
-    from mcpt.gpu.features import (MAX_SAMPLES_PER_DRAW, MIN_SAMPLES_PER_DRAW, PATHS_PER_DRAW,
-                                   samples_per_draw)
+    from mcpt.gpu.features import MAX_SAMPLES_PER_DRAW, MIN_SAMPLES_PER_DRAW, PATHS_PER_DRAW, samples_per_draw
 
     assert samples_per_draw(128, 128) == samples_per_draw(256, 256) == MAX_SAMPLES_PER_DRAW == 64
     assert samples_per_draw(512, 512) == 16

@@ -15,8 +15,16 @@ from mcpt.shading.lights import build_lights
 from mcpt.shading.materials import fdr_internal, fresnel_dielectric
 from mcpt.shading.metals import METALS
 
-from .test_materials_util import (cell_probabilities, chi2_test, floats, probe, sidak,
-                                  sphere_grid, sphere_histogram, uniform_numbers)
+from .test_materials_util import (
+    cell_probabilities,
+    chi2_test,
+    floats,
+    probe,
+    sidak,
+    sphere_grid,
+    sphere_histogram,
+    uniform_numbers,
+)
 
 N = 1 << 19                 # samples per test
 SEED_OFFSET = int(os.environ.get("MCPT_TEST_SEED", "0"))  # vary to look at the p-value spread

@@ -7,7 +7,6 @@ from mcpt.gpu.context import shared_context
 from mcpt.shading import sobol
 
 from .probes import run_test_probe
-
 from .test_materials_util import chi2_test
 
 U32 = np.uint32

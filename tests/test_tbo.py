@@ -1,9 +1,10 @@
 import numpy as np
 import pytest
 
-from .probes import run_test_probe
 from mcpt.bench.probe import PROBE_UNIT
 from mcpt.gpu.tbo import UNITS, TBOError, check_size
+
+from .probes import run_test_probe
 
 
 def test_the_probe_buffer_shares_no_unit_with_the_renderer():

@@ -5,15 +5,15 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from mcpt.gpu.pack import pack
 from mcpt.bench.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
+from mcpt.gpu.pack import pack
 from mcpt.scene.shipped import shipped
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")
@@ -37,10 +37,10 @@ class Outcome:
 class Case:
     name: str
     group: str
-    fn: Callable[["Env"], Outcome]
-    known: Callable[["Env"], str | None] | None = None   # reason + fix when known to fail
+    fn: Callable[[Env], Outcome]
+    known: Callable[[Env], str | None] | None = None   # reason + fix when known to fail
 
-    def known_issue(self, env: "Env") -> str | None:
+    def known_issue(self, env: Env) -> str | None:
         return self.known(env) if self.known else None
 
 
@@ -68,7 +68,7 @@ class Row:
         return "KNOWN FAIL" if self.known else "FAIL"
 
 
-def run_case(c: Case, env: "Env") -> Row:
+def run_case(c: Case, env: Env) -> Row:
     t0 = time.perf_counter()
     try:
         out = c.fn(env)

@@ -9,7 +9,7 @@ import numpy as np
 from mcpt.bench.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
 from mcpt.scene.shipped import shipped
 
-from .core import case, Env, fmt, make_scene, Outcome, render, write_obj
+from .core import Env, Outcome, case, fmt, make_scene, render, write_obj
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")
 CORNELL_YAML = shipped("cornell-box.yaml")

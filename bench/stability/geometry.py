@@ -11,8 +11,8 @@ import numpy as np
 from mcpt.bench.stats import z_test
 from mcpt.scene.shipped import shipped
 
-from .core import case, Env, make_scene, Outcome, render, write_obj
-from .scale import _cornell_reference, cornell_reference, cornell_scene, CORNELL_SPP, judge_offset, judge_same_image
+from .core import Env, Outcome, case, make_scene, render, write_obj
+from .scale import CORNELL_SPP, _cornell_reference, cornell_reference, cornell_scene, judge_offset, judge_same_image
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")
 CORNELL_YAML = shipped("cornell-box.yaml")
@@ -98,8 +98,9 @@ def _offset_in_files(env: Env) -> Outcome:
     """The Cornell box with 1e5 added to every coordinate IN the OBJ files (camera moved too).
     Assimp parses OBJ coordinates as float32 (1/128 steps at 1e5); mcpt/shapes/mesh.py reads them back
     in float64 so the camera-relative rebasing can keep them."""
-    from mcpt.shapes.mesh import load_mesh
     import yaml
+
+    from mcpt.shapes.mesh import load_mesh
 
     off = np.array([1e5, 0.5e5, -0.25e5])
     doc = yaml.safe_load(CORNELL_YAML.read_text())

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from mcpt.bench.stats import VAR_FLOOR_ABS, VAR_FLOOR_REL, z_test
 from mcpt.scene.shipped import shipped
 
-from .core import case, compare_images, Env, fmt, make_scene, Outcome, render, write_obj
-from .scale import cornell_reference, cornell_scene, CORNELL_SPP
+from .core import Env, Outcome, case, compare_images, fmt, make_scene, render, write_obj
+from .scale import CORNELL_SPP, cornell_reference, cornell_scene
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")
 CORNELL_YAML = shipped("cornell-box.yaml")

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
-from mcpt.shading.sampler import dims_for
 from mcpt.gpu.pack import pack
 from mcpt.scene.shipped import shipped
+from mcpt.shading.sampler import dims_for
 
-from .core import case, Env, Outcome
+from .core import Env, Outcome, case
 from .scale import cornell_scene
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")

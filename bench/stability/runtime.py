@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from mcpt.gpu.features import LLVMPIPE_LOOP_LIMIT
-from mcpt.shading.sampler import dims_for
 from mcpt.scene.shipped import shipped
+from mcpt.shading.sampler import dims_for
 
-from .core import case, compare_images, Env, Outcome, render
+from .core import Env, Outcome, case, compare_images, render
 from .furnace import furnace_scene
-from .scale import cornell_reference, cornell_scene, CORNELL_SPP
+from .scale import CORNELL_SPP, cornell_reference, cornell_scene
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")
 CORNELL_YAML = shipped("cornell-box.yaml")

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from mcpt.scene.shipped import shipped
 
-from .core import case, compare_images, Env, make_scene, Outcome, render
+from .core import Env, Outcome, case, compare_images, make_scene, render
 from .furnace import _furnace_case
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")

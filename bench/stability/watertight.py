@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from mcpt.gpu.features import for_world
 from mcpt.gpu.pack import pack
 from mcpt.scene.shipped import shipped
 
-from .core import case, Env, make_scene, Outcome, write_obj
+from .core import Env, Outcome, case, make_scene, write_obj
 from .furnace import sphere_mesh
 
 SPHERE_OBJ = shipped("furnace/sphere_inward.obj")

@@ -80,7 +80,8 @@ def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, d
     if len(paths) < 2:
         raise MergeError("merge needs at least two renders")
     if denoise:
-        from ..output.denoise import denoise as oidn, version
+        from ..output.denoise import denoise as oidn
+        from ..output.denoise import version
 
         denoiser = version()  # DenoiseError (one line) before any work when the extra is missing
     files, records = [], []

@@ -23,9 +23,9 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
-from ..shapes.geometry import shared_vertices
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
+from ..shapes.geometry import shared_vertices
 
 # Where the numbers come from (mcpt/shading/sampler.py, which defines the layout once): "sobol"
 # padded Owen-scrambled Sobol' computed in the shader (default: converges faster, no per-pass
@@ -133,7 +133,7 @@ class Uses:
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
 
-    def everything(self) -> "Uses":
+    def everything(self) -> Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
         return dataclasses.replace(
             self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
@@ -228,18 +228,18 @@ class Features:
     switches: Switches = Switches()
 
     @classmethod
-    def of(cls, **flat) -> "Features":
+    def of(cls, **flat) -> Features:
         """Features from field names of any group, e.g. ``Features.of(bounces=2, bvh=False)``."""
         g = _split(flat)
         return cls(Uses(**g["uses"]), Options(**g["options"]), Limits(**g["limits"]),
                    Switches(**g["switches"]))
 
-    def replace(self, **flat) -> "Features":
+    def replace(self, **flat) -> Features:
         """A copy with the named fields (of any group) changed."""
         g = _split(flat)
         return Features(*(dataclasses.replace(getattr(self, name), **g[name]) for name in _GROUPS))
 
-    def everything(self) -> "Features":
+    def everything(self) -> Features:
         """The uber-shader: every optional code path compiled in (bounces stay as given), path
         continuation included where the driver limits loops (a BVH loop may now run)."""
         return self.replace(uber=True, sampling="mis", russian_roulette=True, continuation=True)

@@ -17,7 +17,7 @@ routine in isolation) passes its fragment source as text: :func:`program` ``frag
 from __future__ import annotations
 
 import re
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 from pathlib import Path
 
@@ -46,7 +46,7 @@ def glsl_dir() -> Path:
     return here
 
 
-@lru_cache(maxsize=None)
+@cache
 def _read(name: str) -> str:
     """A shader file of glsl/."""
     path = glsl_dir() / name

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .context import GL_TEXTURE0, GL_TEXTURE_BUFFER, GLContext
 from ..errors import McptError
+from .context import GL_TEXTURE0, GL_TEXTURE_BUFFER, GLContext
 
 GL_RGBA32F = 0x8814
 GL_RGBA32UI = 0x8D70

@@ -41,7 +41,8 @@ def finish(result, aovs=(), denoise: bool = False) -> tuple[np.ndarray, dict, di
     header = {"mcpt:aovs": ",".join(aovs)} if aovs else {}
     image = result.image
     if denoise:
-        from .denoise import denoise as oidn, version
+        from .denoise import denoise as oidn
+        from .denoise import version
 
         name = version()
         t0 = time.perf_counter()

@@ -10,6 +10,7 @@ sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_s
 from __future__ import annotations
 
 import logging
+
 from ...shading.materials import fdr_internal
 from ...shading.metals import METALS
 from ..fields import TEXTURE_SUFFIXES

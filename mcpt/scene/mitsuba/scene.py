@@ -23,7 +23,7 @@ from ..overrides import apply as apply_overrides
 from ..overrides import blame
 from . import bsdfs, camera
 from .shapes import ShapeOut, shape
-from .xmltree import Node, XmlError, deref, read_tree
+from .xmltree import XmlError, deref, read_tree
 
 log = logging.getLogger("mcpt")
 

@@ -141,7 +141,7 @@ def read_tree(path: str | Path, defines: dict[str, str] | None = None) -> Tree:
     version = root.get("version", "")
     if not version:
         raise root.error("missing attribute 'version' (Mitsuba 3 scenes say version=\"3.0.0\")")
-    if not version.split(".")[0] in ("2", "3"):
+    if version.split(".")[0] not in ("2", "3"):
         raise root.error(f"version {version!r}: mcpt reads Mitsuba 3 (and 2) scene files; "
                          "upgrade a Mitsuba 0.6 scene with Mitsuba 2's converter")
     ids: dict[str, Node] = {}
