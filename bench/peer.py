@@ -206,7 +206,8 @@ def report_lines(summary: dict, settings: dict) -> list[str]:
                  + " | ".join(cell) + " |")
     if summary["ratios"]:
         L += ["", "Ratios mcpt / Mitsuba (paths/s > 1 and time-to-error < 1: mcpt ahead):", "",
-              "| scene | mcpt sampler | Mitsuba sampler | paths/s | time to relMSE 1e-2 | time to 1e-3 | relMSE at equal spp |",
+              "| scene | mcpt sampler | Mitsuba sampler | paths/s | time to relMSE 1e-2 | time to 1e-3 "
+             "| relMSE at equal spp |",
               "|---|---|---|---:|---:|---:|---:|"]
         for r in summary["ratios"]:
             tt = (r["time_to_relmse_ratio"] + [None, None])[:2]

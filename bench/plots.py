@@ -133,7 +133,8 @@ def plot_triangles(res: dict, out: Path, meta: dict | None = None) -> list[Path]
     for r in bvh:
         a1.annotate(r["scene"], (r["triangles"], us(r)), fontsize=6, xytext=(3, -9),
                     textcoords="offset points")
-    _loglog(a1, "triangles in the scene", "render time per path (µs, 8 bounces)", f"Render time against triangles ({w}x{h}, {st['spp']} spp)")
+    _loglog(a1, "triangles in the scene", "render time per path (µs, 8 bounces)",
+            f"Render time against triangles ({w}x{h}, {st['spp']} spp)")
 
     a2.plot(n, [r["setup"]["bvh_build_seconds"] for r in bvh], "o-", label="BVH build (numpy)")
     a2.plot(n, [r["setup"]["load_seconds"] for r in bvh], "s-", label="mesh load (assimp, transform)")
@@ -182,7 +183,8 @@ def plot_error(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
                 label=f"{d['label']} (peer, same reference)")
     for thr in (1e-2, 1e-3):
         a1.axhline(thr, color="k", ls=":", lw=0.8)
-    _loglog(a1, "render seconds (set-up excluded)", "relMSE = mean((x−ref)² / (ref² + 0.01))", f"Error against run time: Cornell {st['resolution'][0]}x{st['resolution'][1]}, 8 bounces")
+    _loglog(a1, "render seconds (set-up excluded)", "relMSE = mean((x−ref)² / (ref² + 0.01))",
+            f"Error against run time: Cornell {st['resolution'][0]}x{st['resolution'][1]}, 8 bounces")
 
     a2.plot(spp, [r["rmse"] for r in recs], "o-", label="RMSE")
     a2.plot(spp, [r["mae"] for r in recs], "s-", label="MAE")
@@ -190,7 +192,8 @@ def plot_error(res: dict, out: Path, meta: dict | None = None) -> list[Path]:
     s0 = np.array(spp, float)
     a2.plot(s0, recs[0]["rmse"] * (s0 / s0[0]) ** -0.5, "k:", lw=1, label="∝ spp^-1/2 (guide)")
     a2.plot(s0, rel[0] * (s0 / s0[0]) ** -1.0, "k--", lw=1, label="∝ spp^-1 (guide)")
-    _loglog(a2, "samples per pixel", "error against the reference (linear radiance)", f"Error against samples per pixel (seed {st['seed']})", x_base=2)
+    _loglog(a2, "samples per pixel", "error against the reference (linear radiance)",
+            f"Error against samples per pixel (seed {st['seed']})", x_base=2)
     ref = sm.get("reference", {})
     fig.suptitle(f"Reference: {ref.get('note', '?')} — {_gl_note(meta)}", fontsize=9)
     return [_save(fig, out / "error.png")]
@@ -213,7 +216,7 @@ def plot_throughput(res: dict, out: Path, meta: dict | None = None) -> list[Path
     a1.bar_label(b1, fmt="%.3f", fontsize=7)
     a1.bar_label(b2, fmt="%.3f", fontsize=7)
     pk = sm.get("peer", {})
-    for i, (v, d) in enumerate(pk.items()):
+    for i, (_v, d) in enumerate(pk.items()):
         if "cornell" in names:
             a1.axhline(d["paths_per_second"] / 1e6, color=("gray", "olive")[i % 2], ls="--", lw=1,
                        label=f"{d['label']}, Cornell ({d['paths_per_second'] / 1e6:.2f})")

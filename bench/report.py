@@ -31,8 +31,10 @@ def section_throughput(d: dict) -> list[str]:
          f"{st['repeats']} run(s), scene and uber-shader runs interleaved. Set-up is excluded from "
          "paths/s and listed apart. Compile figures come from a fresh process with Mesa's disk "
          "shader cache off (bench/compile_probe.py); in a warm process both are near zero.", "",
-         "| scene | triangles | Mpaths/s specialised | Mpaths/s `--features all` | ratio | Mpaths/CPU-s (spec / all) | ratio (CPU-s) | compile s, cold (spec / all) "
-         "| first-draw JIT s, cold (spec / all) | upload bytes (spec / all) | set-up s | random numbers, share of render |",
+         "| scene | triangles | Mpaths/s specialised | Mpaths/s `--features all` | ratio "
+         "| Mpaths/CPU-s (spec / all) | ratio (CPU-s) | compile s, cold (spec / all) "
+         "| first-draw JIT s, cold (spec / all) | upload bytes (spec / all) | set-up s "
+         "| random numbers, share of render |",
          "|---|---:|---:|---:|---:|---|---:|---|---|---|---:|---:|"]
     M = 1e-6
     for name, s in sm["scenes"].items():
@@ -41,7 +43,8 @@ def section_throughput(d: dict) -> list[str]:
         cpu = s.get("paths_per_cpu_second") or {}
         L.append(f"| {name} | {_f(s['triangles'], ',d')} | {_f(pps and pps * M, '.3f')} | "
                  f"{_f(ppa and ppa * M, '.3f', 'failed')} | {_f(s.get('speedup_scene_vs_all'), '.2f')}x | "
-                 f"{_f(cpu.get('scene') and cpu['scene'] * M, '.3f')} / {_f(cpu.get('all') and cpu['all'] * M, '.3f')} | "
+                 f"{_f(cpu.get('scene') and cpu['scene'] * M, '.3f')} / "
+                 f"{_f(cpu.get('all') and cpu['all'] * M, '.3f')} | "
                  f"{_f(s.get('speedup_scene_vs_all_cpu'), '.2f')}x | "
                  f"{_f(cc.get('scene'), '.3f')} / {_f(cc.get('all'), '.3f')} | "
                  f"{_f(cj.get('scene'), '.3f')} / {_f(cj.get('all'), '.3f')} | "
@@ -124,7 +127,8 @@ def section_triangles(d: dict) -> list[str]:
          f"{w}x{h}, {st['spp']} spp, 8 bounces; models from ../shared/models in the Cornell box "
          "(boxes removed), the bunny midpoint-subdivided (same surface, 4x/16x triangles). "
          f"Brute force is skipped once its projected time passes {st['brute_cap_seconds']:.0f} s.", "",
-         "| scene | triangles | BVH ms/pass | brute ms/pass | BVH build s | mesh load s | TBO bytes | BVH nodes / depth |",
+         "| scene | triangles | BVH ms/pass | brute ms/pass | BVH build s | mesh load s | TBO bytes "
+         "| BVH nodes / depth |",
          "|---|---:|---:|---:|---:|---:|---:|---|"]
     brute = {r["triangles"]: r for r in recs if r["accel"] == "brute"}
     for r in (x for x in recs if x["accel"] == "bvh"):
@@ -158,7 +162,8 @@ def section_bounces(d: dict) -> list[str]:
     sm, st, recs = d["summary"], d["settings"], d["records"]
     L = ["## Bounce sweep", "", _meta_line(d["meta"]), "",
          f"Cornell box {st['resolution'][0]}x{st['resolution'][1]}, {st['spp']} spp, seed {st['seed']}.", "",
-         "| bounces | mean R | mean G | mean B | mean luminance ± std. error | step ± std. error | render s | Mpaths/s |",
+         "| bounces | mean R | mean G | mean B | mean luminance ± std. error | step ± std. error "
+         "| render s | Mpaths/s |",
          "|---:|---:|---:|---:|---:|---:|---:|---:|"]
     steps = [None] + sm["steps"]
     ses = [None] + sm.get("steps_stderr", [None] * len(sm["steps"]))

@@ -21,7 +21,8 @@ from .group import main, reports_errors
               help="Quick: small images, a few minutes in all. Full: 256x256, 1024-spp error sweep, "
                    "4.4M-triangle level.")
 @click.option("--only", "only", multiple=True, metavar="SWEEPS",
-              help="Comma-separated sweeps: bounces, triangles, error, throughput (default: all), and peer (mcpt beside Mitsuba 3; only when named).")
+              help="Comma-separated sweeps: bounces, triangles, error, throughput (default: all), and "
+                   "peer (mcpt beside Mitsuba 3; only when named).")
 @click.option("-o", "--out", type=click.Path(file_okay=False, path_type=Path), default=Path("out/bench"),
               show_default=True, help="Folder for the JSON records, PNG plots and REPORT.md.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of every render.")

@@ -160,7 +160,7 @@ class _Loop:
         while acc.spp < self.spp and control.stop is None:
             action, last = [None], [acc.spp]
 
-            def after_draw(summed: int) -> bool:  # a draw may hold several passes
+            def after_draw(summed: int, action=action, last=last) -> bool:  # a draw: several passes
                 action[0] = control.tick(summed, summed - last[0])
                 last[0] = summed
                 return action[0] is not None

@@ -124,9 +124,10 @@ def four_spheres():
     text = text.replace("    emission: [18.387, 13.9873, 6.75357]", "    emission: [2.72, 2.07, 1.0]")
     text = text.replace("  - file: cornell/light.obj\n    material: light",
                         "  - file: cornell/light.obj\n    material: light\n    transform: {scale: [2.6, 1.0, 2.6]}")
-    text = text.replace("meshes:", """  metal: {type: conductor, albedo: [0.9, 0.6, 0.3], roughness: 0.15, smooth_normals: true}
-  plastic: {type: plastic, albedo: [0.2, 0.4, 0.8], smooth_normals: true}
-meshes:""")
+    text = text.replace("meshes:", (
+        "  metal: {type: conductor, albedo: [0.9, 0.6, 0.3], roughness: 0.15, smooth_normals: true}\n"
+        "  plastic: {type: plastic, albedo: [0.2, 0.4, 0.8], smooth_normals: true}\n"
+        "meshes:"))
     for mat, pos in (("mirror", "-0.5, -0.7, -0.4"), ("glass", "0.5, -0.7, 0.3"),
                      ("metal", "0.45, -0.7, -0.5"), ("plastic", "-0.45, -0.7, 0.35")):
         text += f"  - {{file: models/icosphere.obj, material: {mat}, transform: {{scale: 0.3, translate: [{pos}]}}}}\n"

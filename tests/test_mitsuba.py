@@ -173,7 +173,8 @@ def serialized_file(shapes: list[bytes], version=4) -> bytes:
     for s in shapes:
         offsets.append(len(data))
         data += s
-    return data + struct.pack(f"<{len(offsets)}{'Q' if version == 4 else 'I'}", *offsets) + struct.pack("<I", len(offsets))
+    table = struct.pack(f"<{len(offsets)}{'Q' if version == 4 else 'I'}", *offsets)
+    return data + table + struct.pack("<I", len(offsets))
 
 
 @pytest.mark.parametrize("version,double", [(4, False), (4, True), (3, False)])
@@ -273,15 +274,19 @@ def test_plastic_default_is_mapped_exactly_to_mcpts_nonlinear_plastic(tmp_path):
 # --- refusals: one line, file:line: <element>: reason ---------------------------------------------
 
 REFUSALS = [
-    ('<shape type="sphere"><bsdf type="roughplastic"/></shape>', r'<bsdf type="roughplastic">: not supported by mcpt \(supported: diffuse'),
+    ('<shape type="sphere"><bsdf type="roughplastic"/></shape>',
+     r'<bsdf type="roughplastic">: not supported by mcpt \(supported: diffuse'),
     ('<shape type="bsplinecurve"/>', r'<shape type="bsplinecurve">: not supported by mcpt'),
     ('<emitter type="envmap"/>', r'<emitter type="envmap">: not supported by mcpt'),
-    ('<integrator type="aov"/><shape type="sphere"/>', r'<integrator type="aov">: not supported by mcpt: its image differs'),
+    ('<integrator type="aov"/><shape type="sphere"/>',
+     r'<integrator type="aov">: not supported by mcpt: its image differs'),
     ('<shape type="sphere"><ref id="nothing"/></shape>', r"<ref id=\"nothing\">: unknown reference id 'nothing'"),
     ('<shape type="sphere"><transform name="to_world"><scale x="2"/></transform></shape>', r"non-uniform scale"),
-    ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Hg"/></bsdf></shape>', r"not among mcpt's measured metals"),
+    ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Hg"/></bsdf></shape>',
+     r"not among mcpt's measured metals"),
     ('<shape type="sphere"><float name="radius" value="$r"/></shape>', r"undefined parameter \$r"),
-    ('<shape type="sphere"><bsdf type="dielectric"><rgb name="specular_transmittance" value="0.5"/></bsdf></shape>', r"specular_transmittance is not supported"),
+    ('<shape type="sphere"><bsdf type="dielectric"><rgb name="specular_transmittance" value="0.5"/></bsdf>'
+     '</shape>', r"specular_transmittance is not supported"),
 ]
 
 
@@ -297,7 +302,8 @@ def test_refusals_name_file_line_and_element(tmp_path, body, pattern):
 
 
 def test_include_cycle_and_malformed_xml(tmp_path):
-    with pytest.raises(XmlError, match=r"cycle-b.xml:2: <include>: include cycle: cycle-a.xml -> cycle-b.xml -> cycle-a.xml"):
+    cycle = r"cycle-b.xml:2: <include>: include cycle: cycle-a.xml -> cycle-b.xml -> cycle-a.xml"
+    with pytest.raises(XmlError, match=cycle):
         load_scene(DATA / "cycle-a.xml")
     bad = tmp_path / "bad.xml"
     bad.write_text('<scene version="3.0.0">\n<shape type="sphere">\n</scene>\n')

@@ -161,7 +161,8 @@ def test_unknown_key():
 
 def test_unknown_key_in_list_item():
     text = edit("    material: lamp", "    material: lamp\n    colour: red")
-    assert_scene_error(text, line_of(text, "colour"), "meshes.2.colour", "unknown key", "allowed: file, shape, shape_index, flip_normals, material, transform")
+    assert_scene_error(text, line_of(text, "colour"), "meshes.2.colour", "unknown key",
+                       "allowed: file, shape, shape_index, flip_normals, material, transform")
 
 
 def test_string_for_int():
@@ -197,19 +198,19 @@ def test_inf_in_block_list_item_points_at_the_item():
 
 def test_duplicate_key_names_both_lines():
     text = edit("  seed: 7", "  seed: 7\n  spp: 32")
-    first, second = [i for i, l in enumerate(text.splitlines(), 1) if "spp:" in l]
+    first, second = [i for i, line in enumerate(text.splitlines(), 1) if "spp:" in line]
     assert_scene_error(text, second, "render.spp", "duplicate key 'spp'", f"line {first}")
 
 
 def test_duplicate_key_inside_list_item():
     text = edit("    material: lamp", "    material: lamp\n    material: white")
-    lines = [i for i, l in enumerate(text.splitlines(), 1) if "material:" in l]
+    lines = [i for i, line in enumerate(text.splitlines(), 1) if "material:" in line]
     assert_scene_error(text, lines[-1], "meshes.2.material", "duplicate key", f"line {lines[-2]}")
 
 
 def test_duplicate_top_level_section():
     text = BASE + "render:\n  spp: 1\n"
-    first, second = [i for i, l in enumerate(text.splitlines(), 1) if l.startswith("render:")]
+    first, second = [i for i, line in enumerate(text.splitlines(), 1) if line.startswith("render:")]
     assert_scene_error(text, second, "render", "duplicate key", f"line {first}")
 
 
@@ -365,7 +366,8 @@ def test_scale_wrong_type():
 def test_matrix_last_row_and_singular_and_exclusive():
     text = _with_transform("      matrix: [[1,0,0,0], [0,1,0,0], [0,0,1,0], [0,0,1,1]]")
     assert_scene_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix.3", "last row")
-    text = _with_transform("      matrix:\n        - [1,0,0,0]\n        - [0,1,0,0]\n        - [1,1,0,0]\n        - [0,0,0,1]")
+    text = _with_transform("      matrix:\n        - [1,0,0,0]\n        - [0,1,0,0]\n"
+                           "        - [1,1,0,0]\n        - [0,0,0,1]")
     assert_scene_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix", "singular")
     text = _with_transform("      translate: [1, 2, 3]\n      matrix: [[1,0,0,0], [0,1,0,0], [0,0,1,0], [0,0,0,1]]")
     assert_scene_error(text, line_of(text, "matrix"), "meshes.2.transform.matrix", "cannot be combined with translate")

@@ -31,7 +31,7 @@ def test_version_comes_first_and_each_file_is_included_once():
     src = Source("pathtrace.frag", Features.of(bounces=2).preamble())
     assert src.text.startswith("#version ")
     assert src.files.count("geometry.glsl") == 1  # included by bvh.glsl only once
-    assert "#include" not in "\n".join(l for l in src.text.splitlines() if not l.lstrip().startswith("//"))
+    assert "#include" not in "\n".join(ln for ln in src.text.splitlines() if not ln.lstrip().startswith("//"))
 
 
 def test_compiler_errors_name_the_file_and_line(gl, tmp_path, monkeypatch):

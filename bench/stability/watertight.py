@@ -44,7 +44,7 @@ def mesh_world(env: Env, name: str, vertices, faces, *, camera=(0.0, 0.0, 0.0), 
 
     path = write_obj(env.file(f"{name}.obj"), vertices, faces)
     cam = [float(x) for x in camera]
-    sc = make_scene(env, name, camera={"position": cam, "look_at": [c + l for c, l in zip(cam, look)],
+    sc = make_scene(env, name, camera={"position": cam, "look_at": [c + d for c, d in zip(cam, look)],
                                        "vfov_deg": 60, "resolution": [8, 8]},
                     materials={"m": {"albedo": [0.5, 0.5, 0.5], "emission": [1, 1, 1]}},
                     meshes=[{"file": path, "material": "m"}])

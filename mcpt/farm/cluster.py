@@ -119,7 +119,7 @@ def _run(client, p, acc, control, save_checkpoint):
     todo = ranges(acc.spp, spp, acc.chunk)
     futures = {}
     for first, stop in todo:
-        for ti, (x0, y0, w, h) in enumerate(tiles):
+        for ti, (_x0, y0, _w, h) in enumerate(tiles):
             carry = None
             if first == acc.spp and acc.partial is not None:
                 carry = np.ascontiguousarray(acc.partial[:, y0:y0 + h])
@@ -140,7 +140,7 @@ def _run(client, p, acc, control, save_checkpoint):
                 reads = [summed for summed, _ in parts[0]]
                 for i, summed in enumerate(reads):
                     sums = np.zeros((len(r.targets), r.height, r.width, 4), np.float32)
-                    for tj, (x0, y0, w, h) in enumerate(tiles):
+                    for tj, (_x0, y0, _w, h) in enumerate(tiles):
                         sums[:, y0:y0 + h] = parts[tj][i][1]
                     acc.add(summed, sums)
                 action = control.tick(acc.spp, b - a)

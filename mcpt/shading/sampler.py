@@ -30,7 +30,8 @@ the Cornell box, bench/samplers.py). A draw may take several samples (path regen
 
 so a pixel reads only its own ``D`` numbers, each dimension of its path gets its own number, and
 no two pixels or bounces share one. Dimension-major order makes neighbouring pixels, shaded side by
-side in one SIMD batch (llvmpipe) or warp (GPU), read neighbouring addresses. Pass ``p`` of tile ``t`` draws from its own PCG64
+side in one SIMD batch (llvmpipe) or warp (GPU), read neighbouring addresses. Pass ``p`` of tile
+``t`` draws from its own PCG64
 stream seeded by ``SeedSequence([seed, t, p])``: passes never reuse numbers (the thesis's code did),
 the same seed gives the same image, and any pass can be regenerated on its own (no state to carry).
 

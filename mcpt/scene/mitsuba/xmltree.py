@@ -109,7 +109,7 @@ def _substitute(node: Node, params: dict[str, str]) -> None:
         if "$" not in value:
             continue
 
-        def repl(m: re.Match) -> str:
+        def repl(m: re.Match, key=key, value=value) -> str:
             if m.group(1) not in params:
                 known = ", ".join(sorted(params)) or "none"
                 raise node.error(f"undefined parameter ${m.group(1)} in {key}={value!r} (give it a "
