@@ -32,9 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .bvh import (BVH, DEFAULT_MAX_LEAF, LEAF_FLAG, MAX_STACK, SAH_MAX_TRIANGLES, SAH_STEP_COST,
-                  SAH_TRI_COST)
-
+from .bvh import BVH, DEFAULT_MAX_LEAF, LEAF_FLAG, MAX_STACK, SAH_MAX_TRIANGLES, SAH_STEP_COST, SAH_TRI_COST
 
 #: A triangle whose box diagonal exceeds this multiple of the median goes to the large subtree.
 LARGE_TRIANGLE_FACTOR = 8.0
@@ -155,84 +153,50 @@ class _Level:
     axis: np.ndarray  # split axis, -1 for a leaf
 
 
-def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
-                  max_leaf: int) -> tuple[list[_Level], np.ndarray]:
-    """Split nodes level by level; returns the levels and the final triangle order.
+class _Lists:
+    """The triangles still being split, as three id lists (one per centroid axis), grouped by node
+    in order of their start and sorted by centroid k inside each node; and the final ``order``
+    that nodes becoming leaves write their triangles to.
 
-    ``boxes`` (6, F) float32 triangle boxes as (lo, -hi), or None: split every node at the object
-    median of its longest centroid axis (the plain median tree). With boxes, the three axes'
-    object medians are scored by SAH and the cheapest taken; a node of at most ``max_leaf``
-    triangles stays a leaf when SAH prices the leaf at most at its best split. Larger nodes
-    always split, so leaves respect the cap either way.
-    """
-    n_tris = len(centroids)
-    # lists[k] = triangle ids of the nodes still to split, grouped by node (in order of their
-    # start), sorted by centroid k inside each node. numpy's default sort is deterministic (same
-    # input, same order of ties) and 4x faster than its stable sort. int32 halves the memory
-    # traffic. A node that becomes a leaf writes its triangles to `order` and leaves the lists,
-    # so every per-level operation runs over the triangles still being split, contiguously.
-    lists = np.stack([np.argsort(centroids[:, k]).astype(np.int32) for k in range(3)])
-    order = np.empty(n_tris, np.int32)
-    goes_right = np.zeros(n_tris, dtype=bool)  # scratch, only read where just written
-    cent = [np.ascontiguousarray(centroids[:, k]) for k in range(3)]
-    # With SAH: the boxes in each list's order, (3, 6, F), moved along with the lists, so a
-    # node's boxes are a contiguous slice instead of a random gather by triangle id.
-    list_boxes = None if boxes is None else np.stack([boxes[:, lists[k]] for k in range(3)])
+    numpy's default sort is deterministic (same input, same order of ties) and 4x faster than its
+    stable sort. int32 halves the memory traffic. A node that becomes a leaf writes its triangles
+    to ``order`` and leaves the lists, so every per-level operation runs over the triangles still
+    being split, contiguously."""
 
-    def drop(keep_nodes, s, c, off):
+    def __init__(self, centroids: np.ndarray, boxes: np.ndarray | None):
+        n_tris = len(centroids)
+        self.ids = np.stack([np.argsort(centroids[:, k]).astype(np.int32) for k in range(3)])
+        self.order = np.empty(n_tris, np.int32)
+        self.goes_right = np.zeros(n_tris, dtype=bool)  # scratch, only read where just written
+        self.cent = [np.ascontiguousarray(centroids[:, k]) for k in range(3)]
+        # With SAH: the boxes in each list's order, (3, 6, F), moved along with the lists, so a
+        # node's boxes are a contiguous slice instead of a random gather by triangle id.
+        self.boxes = None if boxes is None else np.stack([boxes[:, self.ids[k]] for k in range(3)])
+
+    def drop(self, keep_nodes, s, c, off) -> None:
         """Write the triangles of nodes not in ``keep_nodes`` to `order`; keep the others."""
-        nonlocal lists, list_boxes
         keep = np.repeat(keep_nodes, c)
         gone = ~keep
         gpos = np.repeat((s - off).astype(np.int32), c)[gone]
         gpos += np.flatnonzero(gone).astype(np.int32)
-        order[gpos] = lists[0][gone]
-        lists = lists[:, keep]
-        if list_boxes is not None:
-            list_boxes = list_boxes[:, :, keep]
+        self.order[gpos] = self.ids[0][gone]
+        self.ids = self.ids[:, keep]
+        if self.boxes is not None:
+            self.boxes = self.boxes[:, :, keep]
 
-    levels: list[_Level] = []
-    start = np.zeros(1, np.int64)
-    count = np.array([n_tris], np.int64)
-    first_id = 0
-    while start.size:
-        off = np.cumsum(count) - count  # where each node starts inside `lists`
-        split = count > (1 if boxes is not None else max_leaf)
-        if not split.all():
-            drop(split, start, count, off)
-        s, c = start[split], count[split]
-        n_split = s.size
-        if n_split == 0:
-            levels.append(_Level(first_id, start, count, np.full(start.size, -1, np.int64),
-                                 np.full(start.size, -1, np.int64)))
-            break
-        seg_offset = np.cumsum(c) - c  # where each splitting node starts inside `lists`
-        if boxes is None:
-            # Each list is sorted inside the node, so centroid bounds are its first/last entries.
-            first, last = seg_offset, seg_offset + c - 1
-            extent = np.stack([cent[k][lists[k, last]] - cent[k][lists[k, first]] for k in range(3)], axis=1)
-            node_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
-        else:
-            node_axis, keep_leaf = _sah_choice(list_boxes, seg_offset, c, max_leaf)
-            if keep_leaf.any():
-                # Nodes SAH keeps as leaves drop out of this level's split.
-                idx = np.flatnonzero(split)
-                split[idx[keep_leaf]] = False
-                go = ~keep_leaf
-                drop(go, s, c, seg_offset)
-                s, c, node_axis = s[go], c[go], node_axis[go]
-                n_split = s.size
-        mid = s + c // 2  # object median: the left child gets floor(c / 2) triangles
-        next_id = first_id + start.size
-        left = np.full(start.size, -1, np.int64)
-        left[split] = next_id + 2 * np.arange(n_split)
-        axis = np.full(start.size, -1, np.int64)
-        axis[split] = node_axis
-        levels.append(_Level(first_id, start, count, left, axis))
-        if n_split == 0:
-            break
+    def median_axes(self, seg_offset, c) -> np.ndarray:
+        """The longest centroid axis of every splitting node (the plain median tree)."""
+        # Each list is sorted inside the node, so centroid bounds are its first/last entries.
+        lists, cent = self.ids, self.cent
+        first, last = seg_offset, seg_offset + c - 1
+        extent = np.stack([cent[k][lists[k, last]] - cent[k][lists[k, first]] for k in range(3)], axis=1)
+        return np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
 
-        # Child sizes, left then right per node; `right_half` marks list positions in a right child.
+    def partition(self, node_axis, c, n_split) -> np.ndarray:
+        """Split every node at its object median on ``node_axis``; returns the child sizes, left
+        then right per node."""
+        lists = self.ids
+        # `right_half` marks list positions in a right child.
         child_count = np.stack([c // 2, c - c // 2], axis=1).ravel()
         right_half = np.repeat(np.tile(np.array([False, True]), n_split), child_count)
         # Side of every triangle: the upper half of its node's list on the node's split axis.
@@ -242,7 +206,7 @@ def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
         else:
             pos_axis = np.repeat(node_axis.astype(np.int8), c)
             on_axis = np.where(pos_axis == 0, lists[0], np.where(pos_axis == 1, lists[1], lists[2]))
-        goes_right[on_axis] = right_half
+        self.goes_right[on_axis] = right_half
 
         # Stable partition of every list inside every node: left triangles keep their order
         # from the node start, right ones from the median. A list on its node's own split axis
@@ -254,23 +218,73 @@ def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
             if (node_axis == k).all():
                 continue
             ids = lists[k]
-            r = goes_right[ids]
+            r = self.goes_right[ids]
             to_left, to_right = np.flatnonzero(~r), np.flatnonzero(r)
             new = np.empty_like(ids)
             new[left_half] = ids[to_left]
             new[right_half] = ids[to_right]
             lists[k] = new
-            if list_boxes is not None:
-                b = list_boxes[k]
+            if self.boxes is not None:
+                b = self.boxes[k]
                 nb = np.empty_like(b)
                 nb[:, left_half] = np.take(b, to_left, axis=1)
                 nb[:, right_half] = np.take(b, to_right, axis=1)
-                list_boxes[k] = nb
+                self.boxes[k] = nb
+        return child_count
 
+
+def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
+                  max_leaf: int) -> tuple[list[_Level], np.ndarray]:
+    """Split nodes level by level; returns the levels and the final triangle order.
+
+    ``boxes`` (6, F) float32 triangle boxes as (lo, -hi), or None: split every node at the object
+    median of its longest centroid axis (the plain median tree). With boxes, the three axes'
+    object medians are scored by SAH and the cheapest taken; a node of at most ``max_leaf``
+    triangles stays a leaf when SAH prices the leaf at most at its best split. Larger nodes
+    always split, so leaves respect the cap either way.
+    """
+    lists = _Lists(centroids, boxes)
+    levels: list[_Level] = []
+    start = np.zeros(1, np.int64)
+    count = np.array([len(centroids)], np.int64)
+    first_id = 0
+    while start.size:
+        off = np.cumsum(count) - count  # where each node starts inside the lists
+        split = count > (1 if boxes is not None else max_leaf)
+        if not split.all():
+            lists.drop(split, start, count, off)
+        s, c = start[split], count[split]
+        n_split = s.size
+        if n_split == 0:
+            levels.append(_Level(first_id, start, count, np.full(start.size, -1, np.int64),
+                                 np.full(start.size, -1, np.int64)))
+            break
+        seg_offset = np.cumsum(c) - c  # where each splitting node starts inside the lists
+        if boxes is None:
+            node_axis = lists.median_axes(seg_offset, c)
+        else:
+            node_axis, keep_leaf = _sah_choice(lists.boxes, seg_offset, c, max_leaf)
+            if keep_leaf.any():
+                # Nodes SAH keeps as leaves drop out of this level's split.
+                idx = np.flatnonzero(split)
+                split[idx[keep_leaf]] = False
+                go = ~keep_leaf
+                lists.drop(go, s, c, seg_offset)
+                s, c, node_axis = s[go], c[go], node_axis[go]
+                n_split = s.size
+        mid = s + c // 2  # object median: the left child gets floor(c / 2) triangles
+        next_id = first_id + start.size
+        left = np.full(start.size, -1, np.int64)
+        left[split] = next_id + 2 * np.arange(n_split)
+        axis = np.full(start.size, -1, np.int64)
+        axis[split] = node_axis
+        levels.append(_Level(first_id, start, count, left, axis))
+        if n_split == 0:
+            break
+        count = lists.partition(node_axis, c, n_split)
         start = np.stack([s, mid], axis=1).ravel()
-        count = child_count
         first_id = next_id
-    return levels, order.astype(np.int64)
+    return levels, lists.order.astype(np.int64)
 
 
 def _half_areas(m: np.ndarray) -> np.ndarray:
