@@ -118,8 +118,78 @@ class _Mitsuba:
 # ------------------------------------------------------------------------------------------------
 
 
+class _Sides:
+    """The renderers of every scene in the order they alternate, and why Mitsuba's side stopped
+    (``note``; None while it runs): a failure drops Mitsuba everywhere, keeping what was measured."""
+
+    def __init__(self, log, note: str | None):
+        self.log, self.note = log, note
+        self.by_scene: dict = {}
+
+    def drop_mitsuba(self, note: str) -> None:
+        self.note = note
+        self.log(note)
+        for other in self.by_scene.values():
+            other[:] = [x for x in other if x.renderer != "mitsuba"]
+
+
+def _scene_sides(name, d, path, cfg, pc, res, wanted, work, avail, sides: _Sides):
+    """mcpt's samplers and Mitsuba's for one scene, alternating: mcpt 1, Mitsuba 1, mcpt 2, ..."""
+    mc = []
+    for s in wanted:
+        try:
+            mc.append(_Mcpt(path, cfg, res, s))
+        except Exception as exc:  # one sampler failing must not hide the others: say so, go on
+            sides.log(f"peer: mcpt sampler {s!r} failed on {name}: {type(exc).__name__}: {exc}")
+    ms = []
+    for s in pc.mitsuba_samplers if sides.note is None else ():
+        m = _Mitsuba(d, res, s, pc.variant, avail.version)
+        try:  # untimed: fills drjit's kernel cache (the kernel does not depend on spp)
+            m.run(pc.spp[0], cfg.seed + 999, work)
+            ms.append(m)
+        except Exception as exc:  # e.g. llvm_ad_rgb on a libLLVM too old: one line, no Mitsuba
+            sides.drop_mitsuba(f"Mitsuba 3 not usable ({pc.variant} {s} on {name}: "
+                               f"{type(exc).__name__}: {exc}): skipping its side")
+            ms = []
+            break
+    sides.by_scene[name] = [x for pair in itertools.zip_longest(mc, ms) for x in pair if x is not None]
+    return {x.label: x.info for x in mc}
+
+
+def _measure(pc, cfg, res, refs, work, sides: _Sides) -> list:
+    """Every (round, scene, spp, side) render, alternating the sides; one record each."""
+    records = []
+    for rnd in range(pc.rounds):
+        seed = cfg.seed + rnd
+        for name, ss in sides.by_scene.items():
+            for spp in pc.spp:
+                for side in list(ss):
+                    if side not in ss:  # dropped by a failure just now
+                        continue
+                    try:
+                        img, m = side.run(spp, seed, work)
+                    except mitsuba.MitsubaError as exc:  # keep what was measured; say so once
+                        sides.drop_mitsuba(f"Mitsuba 3 failed mid-run ({exc}): its side stops here")
+                        continue
+                    e = common.errors(img, refs[name])
+                    spp_a = m["spp_actual"]
+                    rec = {"scene": name, "renderer": side.renderer, "sampler": side.sampler,
+                           "label": side.label, "round": rnd, "seed": seed, "spp": spp,
+                           "width": res, "height": res, **m, **e,
+                           "paths_per_second": res * res * spp_a / max(m["seconds"], 1e-12),
+                           "paths_per_cpu_second": res * res * spp_a / max(m["cpu_seconds"], 1e-12),
+                           "mean_rgb": [float(x) for x in img.reshape(-1, 3).mean(axis=0)],
+                           "loadavg_1min": common.loadavg()}
+                    records.append(rec)
+                    sides.log(f"round {rnd} {name:20s} {side.label:38s} {spp:4d} spp  "
+                              f"{m['seconds']:7.3f} s  {rec['paths_per_second'] / 1e6:6.3f} Mpaths/s  "
+                              f"relMSE {e['relmse']:.3e}")
+    return records
+
+
 def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
     """``mcpt bench --only peer``: see the module docstring. Returns {settings, records, summary}."""
+    from mcpt.gpu.features import SAMPLERS
     from mcpt.output.image import read_exr
 
     pc = pcfg or peer_config(cfg.quick)
@@ -127,18 +197,13 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
     out = Path(cfg.out)
     work = out / "peer"
     work.mkdir(parents=True, exist_ok=True)
-    from mcpt.gpu.features import SAMPLERS
-
     wanted = pc.mcpt_samplers or SAMPLERS
     avail = mitsuba.available()
-    mi_note = None
+    sides = _Sides(log, None)
     if not avail.ok:
-        mi_note = f"Mitsuba 3 not available ({avail.reason}): skipping its side"
-        log(mi_note)
-    setups: dict = {}
-    sides: dict = {}
-    refs: dict = {}
-    bounces: dict = {}
+        sides.note = f"Mitsuba 3 not available ({avail.reason}): skipping its side"
+        log(sides.note)
+    setups, refs, bounces = {}, {}, {}
     for name in pc.scenes:
         d = ref_scene_dir(name)
         if not (d / "reference.exr").exists():
@@ -149,66 +214,17 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
         yml = ref_scene_yaml(d)
         bounces[name] = yml["render"]["bounces"]
         path = scenes.write(yml, Path(cfg.scene_dir), f"peer-{name}")
-        mc = []
-        for s in wanted:
-            try:
-                mc.append(_Mcpt(path, cfg, res, s))
-            except Exception as exc:  # one sampler failing must not hide the others: say so, go on
-                log(f"peer: mcpt sampler {s!r} failed on {name}: {type(exc).__name__}: {exc}")
-        ms = []
-        for s in pc.mitsuba_samplers if mi_note is None else ():
-            m = _Mitsuba(d, res, s, pc.variant, avail.version)
-            try:  # untimed: fills drjit's kernel cache (the kernel does not depend on spp)
-                m.run(pc.spp[0], cfg.seed + 999, work)
-                ms.append(m)
-            except Exception as exc:  # e.g. llvm_ad_rgb on a libLLVM too old: one line, no Mitsuba
-                mi_note = (f"Mitsuba 3 not usable ({pc.variant} {s} on {name}: "
-                           f"{type(exc).__name__}: {exc}): skipping its side")
-                log(mi_note)
-                ms = []
-                for other in sides.values():
-                    other[:] = [x for x in other if x.renderer != "mitsuba"]
-                break
-        # mcpt 1, Mitsuba 1, mcpt 2, Mitsuba 2, ...
-        sides[name] = [x for pair in itertools.zip_longest(mc, ms) for x in pair if x is not None]
-        setups[name] = {x.label: x.info for x in mc}
+        setups[name] = _scene_sides(name, d, path, cfg, pc, res, wanted, work, avail, sides)
     if not refs:
         raise FileNotFoundError(f"none of {pc.scenes} found with a reference.exr under "
                                 f"{scenes.shared_dir() / 'scenes-ref'}")
-    records = []
     try:
-        for rnd in range(pc.rounds):
-            seed = cfg.seed + rnd
-            for name, ss in sides.items():
-                for spp in pc.spp:
-                    for side in list(ss):
-                        if side not in ss:  # dropped by a failure just now
-                            continue
-                        try:
-                            img, m = side.run(spp, seed, work)
-                        except mitsuba.MitsubaError as exc:  # keep what was measured; say so once
-                            mi_note = f"Mitsuba 3 failed mid-run ({exc}): its side stops here"
-                            log(mi_note)
-                            for other in sides.values():
-                                other[:] = [x for x in other if x.renderer != "mitsuba"]
-                            continue
-                        e = common.errors(img, refs[name])
-                        spp_a = m["spp_actual"]
-                        rec = {"scene": name, "renderer": side.renderer, "sampler": side.sampler,
-                               "label": side.label, "round": rnd, "seed": seed, "spp": spp,
-                               "width": res, "height": res, **m, **e,
-                               "paths_per_second": res * res * spp_a / max(m["seconds"], 1e-12),
-                               "paths_per_cpu_second": res * res * spp_a / max(m["cpu_seconds"], 1e-12),
-                               "mean_rgb": [float(x) for x in img.reshape(-1, 3).mean(axis=0)],
-                               "loadavg_1min": common.loadavg()}
-                        records.append(rec)
-                        log(f"round {rnd} {name:20s} {side.label:38s} {spp:4d} spp  "
-                            f"{m['seconds']:7.3f} s  {rec['paths_per_second'] / 1e6:6.3f} Mpaths/s  "
-                            f"relMSE {e['relmse']:.3e}")
+        records = _measure(pc, cfg, res, refs, work, sides)
     finally:
-        for ss in sides.values():
+        for ss in sides.by_scene.values():
             for s in ss:
                 s.close()
+    mi_note = sides.note
     summary = summarize(records, pc.thresholds)
     summary["mitsuba"] = {"available": mi_note is None, "version": avail.version, "note": mi_note,
                           "python": str(mitsuba.python()), "tool": str(mitsuba.tool())}

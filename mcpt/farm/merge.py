@@ -74,16 +74,8 @@ def _aovs(rec: dict) -> tuple[str, ...]:
     return aov_mod.parse(rec.get("aovs", ""))
 
 
-def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, dict, dict]:
-    """The merged image, its header (``mcpt:*`` keys: spp summed, the seeds listed) and its AOV
-    layers (the ``layers`` argument of mcpt.output.image.write_exr)."""
-    if len(paths) < 2:
-        raise MergeError("merge needs at least two renders")
-    if denoise:
-        from ..output.denoise import denoise as oidn
-        from ..output.denoise import version
-
-        denoiser = version()  # DenoiseError (one line) before any work when the extra is missing
+def _read_all(paths) -> tuple[list, list]:
+    """Every input's channels and its record; a missing or unreadable file is one line."""
     files, records = [], []
     for path in paths:
         try:
@@ -94,6 +86,12 @@ def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, d
             raise MergeError(f"{path}: not a readable EXR ({' '.join(str(exc).split())})") from None
         files.append(channels)
         records.append(_record(header, path))
+    return files, records
+
+
+def _check_compatible(paths, records) -> None:
+    """Inputs merge only when rendered alike (COMPARED, the same AOV layers) and no two share a
+    pass of one seed (they would share paths: the merge would not be one render's image)."""
     first = records[0]
     ranges: dict[str, list] = {}  # seed -> [(first pass, end pass, path)]
     for path, rec in zip(paths, records):
@@ -111,6 +109,21 @@ def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, d
                                  f"overlap passes {a}..{b - 1} of {other}, so they share paths "
                                  "(render other seeds, or disjoint --first-pass ranges)")
         ranges.setdefault(rec["seed"], []).append((lo, hi, path))
+
+
+def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, dict, dict]:
+    """The merged image, its header (``mcpt:*`` keys: spp summed, the seeds listed) and its AOV
+    layers (the ``layers`` argument of mcpt.output.image.write_exr)."""
+    if len(paths) < 2:
+        raise MergeError("merge needs at least two renders")
+    if denoise:
+        from ..output.denoise import denoise as oidn
+        from ..output.denoise import version
+
+        denoiser = version()  # DenoiseError (one line) before any work when the extra is missing
+    files, records = _read_all(paths)
+    first = records[0]
+    _check_compatible(paths, records)
     spp = np.array([int(r["spp"]) for r in records], np.float64)
     w = spp / spp.sum()
 
