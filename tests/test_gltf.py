@@ -123,6 +123,7 @@ def test_camera_by_name_and_unknown_name(tmp_path):
     assert load_scene(path).camera.position == (0, 0, 4)
     scene = load_scene(path, overrides=("camera=close",))
     assert scene.camera.position == (0, 0, 2) and scene.camera.vfov_deg == pytest.approx(20)
+    assert load_scene(path, overrides=("camera=1",)).camera.position == (0, 0, 2)  # cameras[1]
     with pytest.raises(GltfError, match=r"s.gltf: cameras: camera 'nope': no such camera or camera node "
                                         r"\(cameras: 'main', 'close'\)"):
         load_scene(path, overrides=("camera=nope",))

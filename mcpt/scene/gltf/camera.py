@@ -27,7 +27,7 @@ def _name(item: dict) -> str | None:
 
 def choose(g: Gltf, placed: list[tuple[int, np.ndarray]], name: str | None) -> tuple[int, np.ndarray]:
     """(node index, world matrix) of the camera to render: the first in the node hierarchy, or
-    the one whose camera or node is called ``name``."""
+    the one whose camera or node is called ``name``, or cameras[``name``] for a number."""
     nodes = [(i, w) for i, w in placed if "camera" in g.get("nodes", i)]
     if name is None:
         if not nodes:
@@ -36,9 +36,10 @@ def choose(g: Gltf, placed: list[tuple[int, np.ndarray]], name: str | None) -> t
         return nodes[0]
     names = []
     for i, w in nodes:
-        cam = g.get("cameras", g.get("nodes", i)["camera"], f"nodes[{i}]")
+        ci = g.get("nodes", i)["camera"]
+        cam = g.get("cameras", ci, f"nodes[{i}]")
         names += [n for n in (_name(cam), _name(g.get("nodes", i))) if n]
-        if name in (_name(cam), _name(g.get("nodes", i))):
+        if name in (_name(cam), _name(g.get("nodes", i)), str(ci)):
             return i, w
     known = ", ".join(repr(n) for n in dict.fromkeys(names)) or "none named"
     raise g.error("cameras", f"camera {name!r}: no such camera or camera node (cameras: {known})")
