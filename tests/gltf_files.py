@@ -44,8 +44,11 @@ class GltfBuilder:
         self.doc["accessors"].append(acc)
         return len(self.doc["accessors"]) - 1
 
-    def mesh(self, positions, indices, material: int | None = None, uvs=None, mode: int | None = None) -> int:
+    def mesh(self, positions, indices, material: int | None = None, uvs=None, mode: int | None = None,
+             normals=None) -> int:
         attrs = {"POSITION": self.accessor(np.asarray(positions, np.float32))}
+        if normals is not None:
+            attrs["NORMAL"] = self.accessor(np.asarray(normals, np.float32))
         if uvs is not None:
             attrs["TEXCOORD_0"] = self.accessor(np.asarray(uvs, np.float32))
         prim = {"attributes": attrs, "indices": self.accessor(np.asarray(indices, np.uint16).reshape(-1))}

@@ -155,6 +155,19 @@ def test_metal_rough_mapping(tmp_path, caplog):
     assert [m.material for m in scene.meshes] == ["grey", "lamp", "metal", "shiny", "gltf_default"]
 
 
+def test_given_vertex_normals_shade_smooth_and_are_read(tmp_path):
+    b = small_scene()
+    normals = np.array([[0, 0, 1], [0, 0.6, 0.8], [0, 0, 1], [0, 0, 1]], np.float32)
+    b.node(mesh=b.mesh(QUAD, QUAD_FACES, 0, normals=normals), translation=[0, 0, -3])
+    path = b.write_gltf(tmp_path / "n.gltf")
+    scene = load_scene(path)
+    assert not scene.materials["grey"].smooth_normals and scene.materials["grey_2"].smooth_normals
+    assert scene.meshes[-1].material == "grey_2" and scene.meshes[-1].shape_index == 3
+    raw = read_geometry(GltfPrimitive(path, 3), need_normals=True)
+    np.testing.assert_allclose(raw.parts[0].normals, normals)
+    assert read_geometry(GltfPrimitive(path, 0)).parts[0].normals is None
+
+
 def test_embedded_base_colour_texture_goes_to_the_cache(tmp_path, monkeypatch):
     import cv2
 
@@ -228,6 +241,20 @@ def test_bad_index_non_triangles_sparse_lights_missing_file(tmp_path):
         load_scene(b.write_gltf(tmp_path / "m.gltf"))
     with pytest.raises(SceneError, match=r"missing.glb: cannot read the glTF file: No such file"):
         load_scene(tmp_path / "missing.glb")
+
+
+def test_malformed_json_deep_nesting_and_node_cycles_are_one_line(tmp_path):
+    bad = tmp_path / "bad.gltf"
+    bad.write_text('{"asset": {"version": "2.0"},\n "nodes": [,]}')
+    with pytest.raises(GltfError, match=r"bad.gltf:2: malformed JSON: Expecting value"):
+        load_scene(bad)
+    bad.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(GltfError, match=r"bad.gltf: malformed JSON: nested too deeply"):
+        load_scene(bad)
+    b = small_scene()
+    b.doc["nodes"][1]["children"] = [2]  # floor -> its own parent
+    with pytest.raises(GltfError, match=r"nodes\[2\]: reached twice: the node hierarchy must be a tree"):
+        load_scene(b.write_glb(tmp_path / "c.glb"))
 
 
 def test_cli_refusal_exits_2_with_one_line_and_writes_nothing(tmp_path):

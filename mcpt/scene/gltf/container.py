@@ -44,6 +44,8 @@ class Gltf:
     doc: dict
     bin: bytes | None = None
     _buffers: dict = field(default_factory=dict)
+    #: Values derived from ``doc`` once (geometry.py's primitive numbering).
+    memo: dict = field(default_factory=dict)
 
     def error(self, where: str, reason: str) -> GltfError:
         return GltfError(self.path, None, where, reason)
@@ -97,6 +99,11 @@ class Gltf:
         if len(data) < length:
             raise self.error(where, f"byteLength {length} but the data holds only {len(data)} bytes")
         return data[:length]
+
+
+def obj(value) -> dict:
+    """``value`` if it is a JSON object, else {} (optional objects such as ``extensions``)."""
+    return value if isinstance(value, dict) else {}
 
 
 def decode_data_uri(g: Gltf, uri: str, where: str) -> bytes:
@@ -166,6 +173,8 @@ def _parse(path: Path) -> Gltf:
         raise GltfError(path, None, "", f"the JSON is not UTF-8 (byte {exc.start})") from None
     except json.JSONDecodeError as exc:
         raise GltfError(path, exc.lineno, "", f"malformed JSON: {exc.msg}") from None
+    except RecursionError:
+        raise GltfError(path, None, "", "malformed JSON: nested too deeply") from None
     if not isinstance(doc, dict):
         raise GltfError(path, None, "", "the JSON must be an object")
     asset = doc.get("asset")

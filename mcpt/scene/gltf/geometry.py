@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import accessors
-from .container import Gltf
+from .container import Gltf, obj
 
 MODE_NAMES = {0: "POINTS", 1: "LINES", 2: "LINE_LOOP", 3: "LINE_STRIP", 4: "TRIANGLES",
               5: "TRIANGLE_STRIP", 6: "TRIANGLE_FAN"}
@@ -36,6 +36,8 @@ class Primitive:
 
 def primitives(g: Gltf) -> list[tuple[int, int, dict]]:
     """(mesh index, primitive index, primitive) of every primitive, in file order."""
+    if "primitives" in g.memo:
+        return g.memo["primitives"]
     out = []
     for mi in range(len(g.items("meshes"))):
         prims = g.get("meshes", mi).get("primitives")
@@ -45,12 +47,17 @@ def primitives(g: Gltf) -> list[tuple[int, int, dict]]:
             if not isinstance(prim, dict):
                 raise g.error(f"meshes[{mi}].primitives[{pi}]", "expected an object")
             out.append((mi, pi, prim))
+    g.memo["primitives"] = out
+    g.memo["first"] = [0] * len(g.items("meshes"))
+    for number, (mi, _, _) in reversed(list(enumerate(out))):
+        g.memo["first"][mi] = number
     return out
 
 
 def of_mesh(g: Gltf, mesh: int) -> range:
     """The primitive numbers of ``meshes[mesh]``."""
-    first = sum(len(g.get("meshes", i)["primitives"]) for i in range(mesh))
+    primitives(g)
+    first = g.memo["first"][mesh]
     return range(first, first + len(g.get("meshes", mesh)["primitives"]))
 
 
@@ -61,7 +68,7 @@ def check(g: Gltf, mi: int, pi: int, prim: dict) -> int:
     if mode != 4:
         raise g.error(where, f"mode {mode!r} ({MODE_NAMES.get(mode, 'unknown')}): mcpt renders "
                              "triangles only (mode 4)")
-    if "KHR_draco_mesh_compression" in prim.get("extensions", {}):
+    if "KHR_draco_mesh_compression" in obj(prim.get("extensions")):
         raise g.error(where, "KHR_draco_mesh_compression is not supported by mcpt")
     attrs = prim.get("attributes")
     if not isinstance(attrs, dict) or "POSITION" not in attrs:

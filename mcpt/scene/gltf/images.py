@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 from urllib.parse import unquote
 
-from .container import Gltf, decode_data_uri
+from .container import Gltf, decode_data_uri, obj
 
 log = logging.getLogger("mcpt")
 
@@ -89,7 +89,7 @@ def texture(g: Gltf, info: dict, where: str) -> dict:
     tex = g.get("textures", ti, where)
     at = f"textures[{ti}]"
     if "source" not in tex:
-        exts = ", ".join(tex.get("extensions", {})) or "none"
+        exts = ", ".join(obj(tex.get("extensions"))) or "none"
         raise g.error(at, f"no source image mcpt can read (extensions: {exts}; PNG and JPEG only)")
     wrap, filt = "repeat", "bilinear"
     if "sampler" in tex:

@@ -24,7 +24,7 @@ import logging
 
 import numpy as np
 
-from .container import Gltf
+from .container import Gltf, obj
 from .images import texture
 
 log = logging.getLogger("mcpt")
@@ -48,14 +48,14 @@ def _texture_info(g: Gltf, info, where: str, key: str) -> dict:
         raise g.error(where, f"{key} must be an object")
     if info.get("texCoord", 0) != 0:
         raise g.error(where, f"{key}.texCoord {info.get('texCoord')!r}: mcpt reads TEXCOORD_0 only")
-    if "KHR_texture_transform" in info.get("extensions", {}):
+    if "KHR_texture_transform" in obj(info.get("extensions")):
         log.warning("%s: %s: %s: KHR_texture_transform is ignored", g.path, where, key)
     return texture(g, info, f"{where}.{key}")
 
 
 def _emission(g: Gltf, m: dict, where: str) -> list[float] | None:
     emissive = _factor(g, m, "emissiveFactor", [0.0, 0.0, 0.0], where, 3)
-    ext = m.get("extensions", {}).get("KHR_materials_emissive_strength")
+    ext = obj(m.get("extensions")).get("KHR_materials_emissive_strength")
     if isinstance(ext, dict):
         emissive = emissive * _factor(g, ext, "emissiveStrength", 1.0, where)
     if not emissive.any():
@@ -72,7 +72,7 @@ def _emission(g: Gltf, m: dict, where: str) -> list[float] | None:
 
 def _warn_ignored(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> None:
     ignored = [k for k in IGNORED_TEXTURES if k in m or k in pbr]
-    ignored += [f"extension {e}" for e in m.get("extensions", {}) if e not in KNOWN_EXTENSIONS]
+    ignored += [f"extension {e}" for e in obj(m.get("extensions")) if e not in KNOWN_EXTENSIONS]
     mode = m.get("alphaMode", "OPAQUE")
     if mode != "OPAQUE":
         ignored.append(f"alphaMode {mode} (rendered opaque)")
@@ -92,7 +92,7 @@ def material_name(g: Gltf, index: int | None) -> str:
 
 def material(g: Gltf, index: int | None) -> dict:
     """The mcpt material data (YAML schema) of glTF material ``index`` (None: the default)."""
-    m = {} if index is None else g.get("materials", index)
+    m = {} if index is None else g.get("materials", index, "primitive material")
     where = "default material" if index is None else f"materials[{index}]"
     if isinstance(m.get("name"), str):
         where += f" {m['name']!r}"

@@ -30,7 +30,7 @@ from ..overrides import apply as apply_overrides
 from ..overrides import blame
 from . import camera as cameras
 from . import geometry, nodes
-from .container import Gltf, GltfError, open_gltf
+from .container import Gltf, GltfError, obj, open_gltf
 from .materials import material, material_name
 
 log = logging.getLogger("mcpt")
@@ -67,11 +67,12 @@ def _check_extensions(g: Gltf) -> None:
 
 
 def _refuse_lights(g: Gltf, node: int) -> None:
-    light = g.get("nodes", node).get("extensions", {}).get("KHR_lights_punctual")
+    light = obj(g.get("nodes", node).get("extensions")).get("KHR_lights_punctual")
     if isinstance(light, dict):
-        lights = g.doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+        lights = obj(obj(g.doc.get("extensions")).get("KHR_lights_punctual")).get("lights")
+        lights = lights if isinstance(lights, list) else []
         li = light.get("light")
-        item = lights[li] if isinstance(li, int) and 0 <= li < len(lights) else {}
+        item = obj(lights[li]) if isinstance(li, int) and 0 <= li < len(lights) else {}
         label = f"light {li} {item.get('name')!r}" if isinstance(item.get("name"), str) else f"light {li}"
         raise g.error(f"nodes[{node}]", f"KHR_lights_punctual {label} ({item.get('type', '?')}): "
                                         "punctual lights are not supported by mcpt yet (issue #20); "
@@ -82,7 +83,7 @@ def _meshes(g: Gltf, placed, prims) -> tuple[list[dict], dict[str, dict]]:
     """The scene's mesh entries and materials for the placed nodes."""
     meshes: list[dict] = []
     materials: dict[str, dict] = {}
-    names: dict = {}          # glTF material index (None: default) -> scene material name
+    names: dict = {}          # (glTF material index or None, has normals) -> scene material name
     triangles = 0
     for ni, world in placed:
         _refuse_lights(g, ni)
@@ -99,11 +100,12 @@ def _meshes(g: Gltf, placed, prims) -> tuple[list[dict], dict[str, dict]]:
             triangles += geometry.check(g, mi, pi, prim)
             if triangles > MAX_TRIANGLES:
                 raise g.error(f"nodes[{ni}]", f"the placed meshes add up to more than {MAX_TRIANGLES} triangles")
-            mat = prim.get("material")
-            if mat not in names:
-                names[mat] = _unique(material_name(g, mat), materials)
-                materials[names[mat]] = material(g, mat)
-            meshes.append({"file": str(g.path), "shape_index": number, "material": names[mat],
+            # glTF shades with the vertex normals it gives, flat without (spec 3.7.2.1).
+            key = (prim.get("material"), "NORMAL" in prim["attributes"])
+            if key not in names:
+                names[key] = _unique(material_name(g, key[0]), materials)
+                materials[names[key]] = material(g, key[0]) | ({"smooth_normals": True} if key[1] else {})
+            meshes.append({"file": str(g.path), "shape_index": number, "material": names[key],
                            "transform": {"matrix": world.tolist()}})
     return meshes, materials
 
