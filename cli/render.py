@@ -24,7 +24,8 @@ from .options import finite, positive_finite, render_options
                    "8-bit). Repeat to write several files from one render.")
 @click.option("-D", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a scene key (YAML value), e.g. -D camera.resolution=[512,512] or "
-                   "-D materials.white.albedo=[0.8,0.8,0.8]; repeatable; validated like the file.")
+                   "-D materials.white.albedo=[0.8,0.8,0.8]; repeatable; validated like the file. "
+                   "A .gltf/.glb also takes -D camera=NAME (or index) to pick its camera (issue #19).")
 @click.option("--exposure", type=float, default=0.0, show_default=True, callback=finite,
               help="PNG only: exposure in stops.")
 @click.option("--clamp", type=float, default=None, callback=positive_finite,
@@ -63,7 +64,7 @@ from .options import finite, positive_finite, render_options
 def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs,
            overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, first_pass,
            workers, scheduler, progress_mode, as_json, quiet):
-    """Render SCENE_FILE (YAML) to an image."""
+    """Render SCENE_FILE (YAML, Mitsuba 3 XML, glTF 2.0 .gltf/.glb) to an image."""
     started = time.perf_counter()
     from mcpt.api import Options
     from mcpt.api import render as render_loop

@@ -120,7 +120,9 @@ class Mesh(StrictModel):
     rectangle [-1,1]^2 at z=0 facing +z, cube [-1,1]^3, unit disk at z=0, unit sphere, open unit
     cylinder 0<=z<=1; placed by ``transform``."""
     shape_index: Annotated[int, Field(ge=0)] | None = None
-    """Which shape of a ``.serialized`` file (default 0)."""
+    """Which shape of a ``.serialized`` file (default 0); of a ``.gltf``/``.glb`` file, which
+    primitive (file order across its meshes), in its mesh's own frame (absent: the whole file,
+    placed by its nodes)."""
     flip_normals: bool = False
     """Turn the front side round (reversed winding): Mitsuba's ``flip_normals``."""
 
@@ -128,8 +130,9 @@ class Mesh(StrictModel):
     def _one_source(self) -> Mesh:
         if (self.file is None) == (self.shape is None):
             raise FieldError(("file",), "give a mesh file or a shape (exactly one)")
-        if self.shape_index is not None and (self.file is None or self.file.suffix.lower() != ".serialized"):
-            raise FieldError(("shape_index",), "shape_index is for .serialized files only")
+        indexed = (".serialized", ".gltf", ".glb")  # issue #19: glTF primitives too
+        if self.shape_index is not None and (self.file is None or self.file.suffix.lower() not in indexed):
+            raise FieldError(("shape_index",), "shape_index is for .serialized and glTF files only")
         return self
     # --- end issue #19 ---
     material: str | None = None

@@ -168,6 +168,10 @@ def load_scene(path: str | Path, overrides=()) -> Scene:
         from .mitsuba import load_xml
 
         return load_xml(path, overrides)
+    if path.suffix.lower() in (".gltf", ".glb"):  # issue #19: a glTF 2.0 scene, mapped likewise
+        from .gltf import load_gltf
+
+        return load_gltf(path, overrides)
     try:
         if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
             raise SceneError(path, None, "", f"{path.stat().st_size} bytes is not a scene file "

@@ -54,6 +54,10 @@ def source_of(spec):
 
             raise MeshError(f"{path}: mesh file not found")
         return SerializedShape(path, spec.shape_index or 0)
+    if path.suffix.lower() in (".gltf", ".glb") and spec.shape_index is not None:  # issue #19: glTF
+        from .gltf_source import GltfPrimitive
+
+        return GltfPrimitive(path, spec.shape_index)
     return path
 
 
@@ -81,3 +85,5 @@ def flipped(raw: RawMesh) -> RawMesh:
 READERS[".serialized"] = _read_serialized
 for _kind in primitives.KINDS:
     READERS[_kind] = _read_primitive
+
+from . import gltf_source  # noqa: E402, F401  issue #19: registers the glTF readers
