@@ -32,7 +32,7 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 const int TRI_VERT_ADDR[192] = int[](TRI_VERT_ADDR_TABLE);
 const int TRI_VERT_IDS[192] = int[](TRI_VERT_IDS_TABLE);
 #endif
-// Debug counters (MCPT_COUNTERS, mcpt/gpu/counters.py): per-ray work, summed by atomics.
+// Debug counters (MCPT_COUNTERS, bench/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS
 layout(std430, binding = 1) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
 uint g_iter = 0u, g_fetch = 0u, g_node = 0u, g_tri = 0u;

@@ -198,7 +198,7 @@ class Switches:
 
     sampling: str = "mis"           # the estimator: "mis", "nee" or "bsdf" (SAMPLING_MODES)
     russian_roulette: bool = True   # off: paths end at the bounce limit only (from RR_START on)
-    counters: bool = False          # count traversal work per ray (mcpt/gpu/counters.py)
+    counters: bool = False          # count traversal work per ray (bench/counters.py)
     continuation: bool = True       # off: never continue long paths in further draws
     uber: bool = False              # compile every optional code path (Features.everything)
 
