@@ -21,6 +21,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -30,21 +31,17 @@ from ..scene.gltf import materials as gltf_materials
 from ..scene.gltf import nodes as gltf_nodes
 from ..scene.gltf.scene import MAX_TRIANGLES
 from .mesh import READERS
-from .raw_mesh import MeshError, MeshMaterial, RawMesh, RawPart, TextureMap
+from .raw_mesh import FileShape, MeshError, MeshMaterial, RawMesh, RawPart, TextureMap
 
 log = logging.getLogger("mcpt")
 
 
 @dataclass(frozen=True)
-class GltfPrimitive:
+class GltfPrimitive(FileShape):
     """Primitive ``index`` (file order across meshes) of the glTF file ``path``."""
 
-    path: Path
-    index: int = 0
     kind: str = "gltf-primitive"
-
-    def __str__(self) -> str:
-        return f"{self.path} (primitive {self.index})"
+    what: ClassVar[str] = "primitive"
 
 
 def _part(prim, material: int = 0, matrix: np.ndarray | None = None) -> RawPart:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -88,3 +89,17 @@ class RawMesh:
     source: Path
     parts: list[RawPart]
     materials: list[MeshMaterial] = field(default_factory=lambda: [MeshMaterial("")])
+
+
+@dataclass(frozen=True)
+class FileShape:
+    """Shape ``index`` of a file that holds several (a Mitsuba ``.serialized``, a glTF): a geometry
+    source whose ``kind`` names its reader in ``mesh.READERS``; ``what`` names one in messages."""
+
+    path: Path
+    index: int = 0
+    kind: str = ""
+    what: ClassVar[str] = "shape"
+
+    def __str__(self) -> str:
+        return f"{self.path} ({self.what} {self.index})"

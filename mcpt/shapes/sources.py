@@ -16,7 +16,7 @@ import numpy as np
 
 from . import primitives
 from .mesh import READERS
-from .raw_mesh import MeshMaterial, RawMesh, RawPart
+from .raw_mesh import FileShape, MeshMaterial, RawMesh, RawPart
 from .serialized import read_serialized
 
 
@@ -31,15 +31,10 @@ class PrimitiveSource:
 
 
 @dataclass(frozen=True)
-class SerializedShape:
+class SerializedShape(FileShape):
     """Shape ``index`` of a Mitsuba ``.serialized`` file."""
 
-    path: Path
-    index: int = 0
     kind: str = ".serialized"
-
-    def __str__(self) -> str:
-        return f"{self.path} (shape {self.index})"
 
 
 def source_of(spec):

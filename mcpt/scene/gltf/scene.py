@@ -22,12 +22,9 @@ import logging
 from pathlib import Path
 
 import numpy as np
-from pydantic import ValidationError
 
-from ..diagnostics import to_scene_error
+from ..mapped import validated
 from ..model import Scene
-from ..overrides import apply as apply_overrides
-from ..overrides import blame
 from . import camera as cameras
 from . import geometry, nodes
 from .container import Gltf, GltfError, obj, open_gltf
@@ -139,11 +136,4 @@ def load_gltf(path: str | Path, overrides=()) -> Scene:
     path = Path(path)
     options, keys = split_options(overrides, path)
     data = scene_data(path, options)
-    named = []
-    if keys:
-        data, named = apply_overrides(data, keys, str(path))
-    try:
-        scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
-    except ValidationError as exc:
-        raise blame(to_scene_error(exc, str(path), {}, Scene), named, str(path)) from None
-    return scene.located(path, {})
+    return validated(data, {}, path, keys)

@@ -15,12 +15,9 @@ import logging
 from pathlib import Path
 
 import numpy as np
-from pydantic import ValidationError
 
-from ..diagnostics import to_scene_error
+from ..mapped import validated
 from ..model import Scene
-from ..overrides import apply as apply_overrides
-from ..overrides import blame
 from . import bsdfs, camera
 from .shapes import ShapeOut, shape
 from .xmltree import XmlError, deref, read_tree
@@ -116,11 +113,4 @@ def load_xml(path: str | Path, overrides=()) -> Scene:
     path = Path(path)
     params, keys = split_defines(overrides, path)
     data, lines = scene_data(path, params)
-    named = []
-    if keys:
-        data, named = apply_overrides(data, keys, str(path))
-    try:
-        scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
-    except ValidationError as exc:
-        raise blame(to_scene_error(exc, str(path), lines, Scene), named, str(path)) from None
-    return scene.located(path, lines)
+    return validated(data, lines, path, keys)
