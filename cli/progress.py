@@ -6,8 +6,8 @@ regular expression can read (numbers only, fixed keys, one space apart)::
     mcpt: progress 42.2% passes 27/64 paths/s 1.234e+05 left 12.3s
 
 The interval is 5 s, or ``$MCPT_PROGRESS_INTERVAL`` seconds. ``left`` is ``-`` until a pass has
-been timed. The paths/s figure counts the passes drawn by this
-run (a resumed render does not count the checkpoint's passes as fast ones).
+been timed. The paths/s figure counts the passes drawn by this run (a resumed render does not
+count the checkpoint's passes as fast ones).
 """
 
 from __future__ import annotations

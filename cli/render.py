@@ -58,12 +58,15 @@ from .options import finite, positive_finite, render_options
               default="auto", show_default=True,
               help="'plain': one regex-friendly line every few seconds (default when stdout is not "
                    "a terminal); 'bar': redrawn on a terminal.")
+@click.option("--camera", default=None, metavar="NAME",
+              help="glTF only: the camera to look through, by name or index (default: the first); "
+                   "the same as -D camera=NAME.")
 @click.option("--json", "as_json", is_flag=True, help="Print the render summary as JSON on stdout.")
 @click.option("--quiet", is_flag=True, help="No progress output.")
 @reports_errors
 def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs,
            overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, first_pass,
-           workers, scheduler, progress_mode, as_json, quiet):
+           workers, scheduler, camera, progress_mode, as_json, quiet):
     """Render SCENE_FILE (YAML, Mitsuba 3 XML, glTF 2.0 .gltf/.glb) to an image."""
     started = time.perf_counter()
     from mcpt.api import Options
@@ -71,6 +74,11 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
     from mcpt.farm.signals import StopSignals
     from mcpt.gpu.aov import parse as parse_aovs
 
+    if camera is not None:
+        if not scene_file.lower().endswith((".gltf", ".glb")):
+            raise click.BadParameter("only a glTF scene (.gltf, .glb) names its cameras",
+                                     param_hint="--camera")
+        overrides = (*overrides, f"camera={camera}")  # the glTF reader's option (mcpt/scene/gltf)
     prog = progress_mod.make(progress_mode, quiet)
     opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
                    gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,

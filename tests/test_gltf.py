@@ -12,10 +12,12 @@ import sys
 import numpy as np
 import pytest
 
+from mcpt.output.image import read_exr
 from mcpt.scene import SceneError, load_scene
 from mcpt.scene.gltf import GltfError, accessors, nodes, open_gltf, scene_data
 from mcpt.shapes.gltf_source import GltfPrimitive
 from mcpt.shapes.mesh import MeshError, read_geometry
+from tests.conftest import ROOT
 from tests.gltf_files import QUAD, QUAD_FACES, GltfBuilder, write_obj
 
 RX90 = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # rotation by +90 degrees about X
@@ -268,6 +270,25 @@ def test_cli_refusal_exits_2_with_one_line_and_writes_nothing(tmp_path):
     assert re.fullmatch(r"mcpt: error: \S*model.glb: accessors\[2\]: .*byteLength 48\n", res.stderr), res.stderr
     assert not out.exists()
 
+
+
+def test_cli_camera_option_picks_the_named_camera_and_is_refused_elsewhere(tmp_path):
+    b = small_scene()
+    b.node(camera=b.camera(math.radians(20), name="close"), translation=[0, 0, 2])
+    path = b.write_gltf(tmp_path / "s.gltf")
+    cmd = [sys.executable, "-m", "mcpt", "render", "--spp", "1", "--resolution", "8x8", "--json", "--quiet"]
+    views = {}
+    for how in (["--camera", "close"], ["-D", "camera=close"], []):
+        out = tmp_path / f"{len(views)}.exr"
+        res = subprocess.run([*cmd, str(path), *how, "-o", str(out)], capture_output=True, text=True)
+        assert res.returncode == 0, res.stderr
+        views[" ".join(how)] = read_exr(out)[0]
+    assert np.array_equal(views["--camera close"], views["-D camera=close"])
+    assert not np.array_equal(views["--camera close"], views[""])  # not the first camera's view
+    yaml_scene = ROOT / "scenes" / "cornell-box.yaml"
+    res = subprocess.run([*cmd, str(yaml_scene), "--camera", "close", "-o", str(tmp_path / "y.exr")],
+                         capture_output=True, text=True)
+    assert res.returncode == 2 and "--camera" in res.stderr and not (tmp_path / "y.exr").exists()
 
 # --- a YAML scene placing the whole file -------------------------------------------------------
 

@@ -28,12 +28,12 @@ the Cornell box, bench/samplers.py). A draw may take several samples (path regen
     index = dim * P + pixel,   P = pixels in the tile,
                                pixel = row_in_tile * tile_width + column_in_tile (rows from the top)
 
-so a pixel reads only its own ``D`` numbers, each dimension of its path gets its own number, and
-no two pixels or bounces share one. Dimension-major order makes neighbouring pixels, shaded side by
+so a pixel reads only its own ``D`` numbers, each dimension of its path gets its own number, and no
+two pixels or bounces share one. Dimension-major order makes neighbouring pixels, shaded side by
 side in one SIMD batch (llvmpipe) or warp (GPU), read neighbouring addresses. Pass ``p`` of tile
-``t`` draws from its own PCG64
-stream seeded by ``SeedSequence([seed, t, p])``: passes never reuse numbers (the thesis's code did),
-the same seed gives the same image, and any pass can be regenerated on its own (no state to carry).
+``t`` draws from its own PCG64 stream seeded by ``SeedSequence([seed, t, p])``: passes never reuse
+numbers (the thesis's code did), the same seed gives the same image, and any pass can be regenerated
+on its own (no state to carry).
 
 Cost: about 8 ms for 256 x 256 x 50 numbers on this 2-core machine, written into one
 preallocated array (fresh 13 MB allocations each pass cost 5x more in page faults); the render

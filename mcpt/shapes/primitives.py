@@ -14,15 +14,14 @@ UVs follow Mitsuba (v = 0 at the image's TOP row), and mcpt's textures put v = 0
 so every ``uvs`` array here holds ``(u, 1 - v)``.
 
 How fine: curved outlines are polygons INSCRIBED in the true curve, with ``segments(tolerance)``
-edges per full turn, so that no point of the mesh lies farther than ``tolerance`` x radius from
-the true surface (the sagitta of one edge: r (1 - cos(pi / n)) <= tolerance r). The default
-:data:`TOLERANCE` = 3e-4 gives 129 segments per turn (a sphere, whose cells are two-dimensional:
-182 segments and 32 760 triangles): at 1000 pixels
-across, the silhouette is off by at most 0.15 pixel, and the tessellated area (hence an emitting
-sphere's power) is short of the true one by less than 2 x tolerance = 0.06 % (disk: 4/3, sphere:
-5/3 of it) -- below the noise of any render we compare. Normals are the
-analytic (smooth) ones, which Mitsuba's analytic shapes shade with; the mesh normal decides only
-which side is the front.
+edges per full turn, so that no point of the mesh lies farther than ``tolerance`` x radius from the
+true surface (the sagitta of one edge: r (1 - cos(pi / n)) <= tolerance r). The default
+:data:`TOLERANCE` = 3e-4 gives 129 segments per turn (a sphere, whose cells are two-dimensional: 182
+segments and 32 760 triangles): at 1000 pixels across, the silhouette is off by at most 0.15 pixel,
+and the tessellated area (hence an emitting sphere's power) is short of the true one by less than 2
+x tolerance = 0.06 % (disk: 4/3, sphere: 5/3 of it) -- below the noise of any render we compare.
+Normals are the analytic (smooth) ones, which Mitsuba's analytic shapes shade with; the mesh normal
+decides only which side is the front.
 """
 
 from __future__ import annotations
