@@ -26,6 +26,16 @@ from dataclasses import asdict, dataclass, fields
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
 from ..shapes.geometry import shared_vertices
+from .limits import (  # noqa: F401 (re-exported: the names callers know features by)
+    LLVMPIPE_LOOP_LIMIT,
+    MAX_SAMPLES_PER_DRAW,
+    MIN_SAMPLES_PER_DRAW,
+    TRI_CONST_MAX,
+    loop_limit_for,
+    max_loop_iterations,
+    needs_continuation,
+    vertex_tables,
+)
 
 # Where the numbers come from (mcpt/shading/sampler.py, which defines the layout once): "sobol"
 # padded Owen-scrambled Sobol' computed in the shader (default: converges faster, no per-pass
@@ -35,17 +45,8 @@ SAMPLERS = ("sobol", "independent")
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
 
-# Up to this many triangles, a scene without BVH has its count compiled in and its brute-force
-# loop written out in full (glsl/bvh.glsl MCPT_TRI_CONST; the shader writes out exactly this many).
-TRI_CONST_MAX = 64
-
 # The estimators of Switches.sampling: MIS, and the two it combines (to check it against).
 SAMPLING_MODES = ("mis", "nee", "bsdf")
-
-# llvmpipe (gallivm's loop limiter) stops the loops of a shader invocation after 65535
-# iterations in total; glsl/common.glsl counts them and drops samples that reach it.
-LLVMPIPE_LOOP_LIMIT = 65535
-
 
 # Samples per pixel one draw takes with the sobol sampler (path regeneration, glsl/pathtrace.frag):
 # lanes whose path ended start the next one instead of idling, and an 8-lane group waits only once
@@ -57,8 +58,6 @@ LLVMPIPE_LOOP_LIMIT = 65535
 # paths (~3 s at the 100k sphere's 1.3 M paths/s on llvmpipe) unless that would mean fewer than
 # MIN_SAMPLES_PER_DRAW samples; MAX_SAMPLES_PER_DRAW is the read-back chunk (render.py), which a
 # draw never spans. needs_continuation below assumes no draw takes more than the maximum.
-MIN_SAMPLES_PER_DRAW = 4
-MAX_SAMPLES_PER_DRAW = 64
 PATHS_PER_DRAW = 1 << 22
 
 
@@ -68,45 +67,6 @@ def samples_per_draw(width: int, height: int) -> int:
     while n > MIN_SAMPLES_PER_DRAW and width * height * n > PATHS_PER_DRAW:
         n //= 2
     return n
-
-
-def max_loop_iterations(bounces: int, n_triangles: int, *, traced: bool = True,
-                        n_lights: int = 1) -> int:
-    """An upper bound on the loop iterations of one path: per ray (a closest-hit and a shadow ray
-    per vertex) every node and triangle once (a binary tree has < 2 nodes per triangle) when the
-    triangles are reached by a loop (BVH or brute force), none when their tests are written out
-    (``traced`` False: MCPT_TRI_CONST without a BVH); per vertex the light CDF's binary search
-    (glsl/lights.glsl) and one iteration of the bounce loop."""
-    per_ray = 3 * max(n_triangles, 1) if traced else 0
-    search = max(n_lights - 1, 0).bit_length() + 1
-    return (bounces + 1) * (2 * per_ray + search + 1)
-
-
-def needs_continuation(loop_limit: int, bounces: int, n_triangles: int, *, traced: bool = True,
-                       n_lights: int = 1) -> bool:
-    """Whether a path may outrun one draw's share of the loop limit (glsl/path_state.glsl). When
-    it cannot (the Cornell box: 36 triangles written out, 8 bounces, < 30 iterations a path), the
-    continuation code and its per-draw read-back are left out."""
-    worst = MAX_SAMPLES_PER_DRAW * max_loop_iterations(bounces, n_triangles, traced=traced,
-                                                       n_lights=n_lights)  # one draw's paths
-    return loop_limit > 0 and worst > loop_limit // 4
-
-
-def loop_limit_for(renderer: str) -> int:
-    """The loop-iteration limit of a GL renderer (GL_RENDERER string); 0 when it has none."""
-    return LLVMPIPE_LOOP_LIMIT if "llvmpipe" in renderer.lower() else 0
-
-
-def vertex_tables(vert_addr, tri_vert_ids) -> str:
-    """The defines of glsl/bvh.glsl's written-out brute-force loop (small scenes): each distinct
-    vertex's u_tris texel and each corner's distinct-vertex index (mcpt/shapes/geometry.py
-    shared_vertices), padded to the shader's fixed 3 x TRI_CONST_MAX entries. Data, not feature
-    switches: their names are not MCPT_ defines (those are numbers, :meth:`Features.defines`)."""
-    n = 3 * TRI_CONST_MAX
-    if len(vert_addr) > n or len(tri_vert_ids) > n:
-        raise ValueError(f"at most {TRI_CONST_MAX} triangles have their vertex tables compiled in")
-    pad = lambda vals: ",".join(map(str, list(vals) + [0] * (n - len(vals))))  # noqa: E731
-    return f"#define TRI_VERT_ADDR_TABLE {pad(vert_addr)}\n#define TRI_VERT_IDS_TABLE {pad(tri_vert_ids)}"
 
 
 @dataclass(frozen=True)
