@@ -241,7 +241,7 @@ def _scaled(image, scale, where: str) -> np.ndarray:
         raise EnvMapError(f"{where}: scale must be one or three finite non-negative numbers, got {scale!r}")
     check_texels(img, where)
     out = img if (s == 1.0).all() else (img * s.astype(np.float32))
-    if not np.isfinite(out).all():
+    if not np.isfinite(float(out.max())):
         raise EnvMapError(f"{where}: scale {scale!r} makes texels overflow float32")
     return _pad(np.ascontiguousarray(out, np.float32))
 
@@ -253,13 +253,14 @@ def build_envmap(image, scale=1.0, to_world=None, name: str = "environment map")
     texels = _scaled(image, scale, name)
     rot = _rotation(to_world, name)
     h, w = texels.shape[:2]
-    lum = texels.astype(np.float64) @ LUMINANCE                      # (H, W)
+    lum = (texels @ LUMINANCE.astype(np.float32)).astype(np.float64)  # (H, W)
     a, b = _row_weights(h)
     lum_cols = 0.5 * (lum + np.roll(lum, -1, axis=1))                 # cell i: columns i, i + 1
-    rgb_cols = 0.5 * (texels + np.roll(texels, -1, axis=1)).astype(np.float64)
     dphi = 2.0 * np.pi / w
     weight = dphi * (a[:, None] * lum_cols[:-1] + b[:, None] * lum_cols[1:])   # (H-1, W)
-    integral = dphi * (np.einsum("j,jic->c", a, rgb_cols[:-1]) + np.einsum("j,jic->c", b, rgb_cols[1:]))
+    # The column pairs of a row of cells add up to the row's sum (periodic in u).
+    rows = texels.sum(axis=1, dtype=np.float64)                       # (H, 3)
+    integral = dphi * (a @ rows[:-1] + b @ rows[1:])
     solid = dphi * (a + b)                                            # solid angle of a cell per row
     if not weight.sum() > 0.0:  # black: sample uniformly (its radiance is 0 anyway; no 0/0)
         weight = np.broadcast_to(solid[:, None], weight.shape).copy()
