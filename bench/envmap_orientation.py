@@ -24,7 +24,8 @@ import numpy as np
 
 W, H = 32, 16
 SPOTS = {(15, 7): (60.0, 0.0, 0.0), (0, 5): (0.0, 60.0, 0.0), (7, 9): (0.0, 0.0, 60.0)}  # (x, y): RGB
-CAMERAS = {"+Z": ((0, 0, 1), 0.0), "-Z": ((0, 0, -1), 0.0), "+X": ((1, 0, 0), 0.0), "+X, map turned 90 deg": ((1, 0, 0), 90.0)}
+CAMERAS = {"+Z": ((0, 0, 1), 0.0), "-Z": ((0, 0, -1), 0.0), "+X": ((1, 0, 0), 0.0),  # (look at, map turned)
+           "+X, map turned 90 deg": ((1, 0, 0), 90.0)}
 RES, FOV, SPP, SUB = 48, 90.0, 256, 4
 
 
@@ -50,7 +51,7 @@ def peer_side(map_path: str, out: str) -> None:
 
     mi.set_variant("scalar_rgb")
     result = {}
-    for k, (name, (target, deg)) in enumerate(CAMERAS.items()):
+    for k, (target, deg) in enumerate(CAMERAS.values()):
         scene = mi.load_dict({
             "type": "scene",
             "integrator": {"type": "path", "max_depth": 2},

@@ -50,6 +50,10 @@ __all__ = ["MAX_ENV_TEXELS", "EnvMap", "EnvMapError", "build_envmap", "read_envm
 #: Rec. 709 luminance weights (the same as mcpt/shading/lights.py LUMINANCE and glsl/common.glsl).
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
+#: The GLSL twin, included by glsl/lights.glsl under MCPT_ENVMAP (also what tells the wheel check
+#: of tests/test_package.py that it is renderer code, not a probe, before that include exists).
+GLSL_FILE = "envmap.glsl"
+
 #: Mitsuba's smallest environment map (Bitmap::pad_to(2, 3)): W >= 2, H >= 3.
 MIN_WIDTH, MIN_HEIGHT = 2, 3
 
