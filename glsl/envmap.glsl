@@ -1,7 +1,7 @@
 // Environment map (Mitsuba's "envmap" emitter): radiance arriving from infinitely far away, from a
 // latitude-longitude image, importance-sampled for next-event estimation. Host side, with the
-// derivations and the buffer layout: mcpt/shading/envmap.py. Included by glsl/lights.glsl under
-// MCPT_ENVMAP. The contract:
+// derivations and the buffer layout: mcpt/shading/envmap.py. Included by glsl/lights.glsl when the
+// scene has an environment map (its feature define). The contract:
 //   vec3  env_radiance(vec3 d)                   radiance a ray escaping along unit world d sees
 //   vec3  env_sample(vec2 u, out float pdf)      unit world direction, pdf per steradian
 //   float env_pdf(vec3 d)                        the pdf env_sample has at d (the same function)
