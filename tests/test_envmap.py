@@ -16,6 +16,7 @@ from mcpt.shading.envmap import (
     EnvMapError,
     _row_weights,
     build_envmap,
+    load_envmap,
     read_envmap,
     read_envmap_image,
 )
@@ -229,6 +230,7 @@ def test_tiny_images_pad_like_mitsuba():
     np.testing.assert_allclose(env.cell_pdf, 1.0 / (4.0 * np.pi), rtol=1e-6)
     np.testing.assert_allclose(env.radiance_integral, 8.0 * np.pi, rtol=1e-12)
     assert env.mean_radiance_luminance == pytest.approx(2.0)
+    assert env.power(3.0) == pytest.approx(math.pi * 9.0 * 8.0 * math.pi)  # pi r^2 x 4 pi L
     two = build_envmap(np.array([[[1, 1, 1]], [[3, 3, 3]]], np.float32))  # 1 x 2: last row repeated
     np.testing.assert_array_equal(two.texels[:, :, 0], [[1, 1], [3, 3], [3, 3]])
     black = build_envmap(np.zeros((4, 8, 3), np.float32))  # samples uniformly, radiance 0
@@ -252,6 +254,8 @@ def test_reads_exr_hdr_and_ldr(tmp_path, caplog):
     rgb = np.random.default_rng(1).random((6, 10, 3)).astype(np.float32) * 50
     write_exr(tmp_path / "a.exr", rgb)
     np.testing.assert_array_equal(read_envmap(tmp_path / "a.exr"), rgb)
+    env = load_envmap(tmp_path / "a.exr", scale=(1.0, 0.5, 2.0))
+    np.testing.assert_allclose(env.texels, rgb * np.float32([1.0, 0.5, 2.0]), rtol=1e-7)
     cv2.imwrite(str(tmp_path / "a.hdr"), rgb[:, :, ::-1])
     img, note = read_envmap_image(tmp_path / "a.hdr")
     # RGBE: 8-bit mantissas under the pixel's largest channel's exponent.

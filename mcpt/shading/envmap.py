@@ -45,7 +45,8 @@ import numpy as np
 
 from .envmap_file import MAX_ENV_TEXELS, EnvMapError, check_texels, read_envmap, read_envmap_image
 
-__all__ = ["MAX_ENV_TEXELS", "EnvMap", "EnvMapError", "build_envmap", "read_envmap", "read_envmap_image"]
+__all__ = ["MAX_ENV_TEXELS", "EnvMap", "EnvMapError", "build_envmap", "load_envmap", "read_envmap",
+           "read_envmap_image"]
 
 #: Rec. 709 luminance weights (the same as mcpt/shading/lights.py LUMINANCE and glsl/common.glsl).
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -96,6 +97,11 @@ class EnvMap:
         same irradiance on every side); a light-selection weight for the lights helper
         (pbrt-v4's infinite-light power is pi r^2 times 4 pi times this, r the scene's radius)."""
         return float(self.radiance_integral @ LUMINANCE / (4.0 * np.pi))
+
+    def power(self, radius: float) -> float:
+        """pbrt-v4's power of an infinite light seen by a scene of bounding radius ``radius``:
+        pi r^2 times the luminance integral over the sphere (the flux through a disk of radius r)."""
+        return float(np.pi * radius**2 * (self.radiance_integral @ LUMINANCE))
 
     # --- GPU ------------------------------------------------------------------------------------
 
@@ -283,3 +289,8 @@ def build_envmap(image, scale=1.0, to_world=None, name: str = "environment map")
     p_cell = np.diff(conditional.astype(np.float64), axis=1, prepend=0.0)
     cell_pdf = (p_row[:, None] * p_cell / solid[:, None]).astype(np.float32)
     return EnvMap(texels, rot, marginal, conditional, cell_pdf, integral)
+
+
+def load_envmap(path, scale=1.0, to_world=None) -> EnvMap:
+    """:func:`build_envmap` of the image file ``path`` (:func:`read_envmap`), errors naming it."""
+    return build_envmap(read_envmap(path), scale, to_world, name=str(path))
