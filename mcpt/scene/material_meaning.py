@@ -27,6 +27,7 @@ from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from .materials import ImageTexture, Material
 from .model import Mesh, Scene
+from .textures import CheckerboardTexture, build_texture, texture_key
 
 log = logging.getLogger("mcpt")
 
@@ -160,7 +161,7 @@ class MaterialResolver:
                 ke = _file_emission(spec.file, mm, ke, self._file_texture(mesh_where, spec, mm, mm.ke_map))
             tex, tex_where = yaml_tex if yaml_tex is not None else (
                 kd_map, f"{mesh_where}: {spec.file}: material {mm.name!r}")
-            tex_key = str(tex.file) if tex is not None else None
+            tex_key = texture_key(tex) if tex is not None else None
             if ym is None:
                 key = ("mtl", str(spec.file), mm.name)
                 ids[j] = self._add(key, file_row(mm.name, kd, ke), tex, tex_where)
@@ -201,10 +202,10 @@ class MaterialResolver:
         return self._index[key]
 
     def _texture_id(self, ref, where: str) -> int:
-        key = (str(ref.file), ref.wrap, ref.filter)
+        key = texture_key(ref)
         if key not in self._texture_index:
             try:
-                texture = load_texture(ref.file, ref.wrap, ref.filter)
+                texture = build_texture(ref)
             except TextureError as exc:  # name the scene line and key, not only the image
                 raise TextureError(f"{where}: {exc}") from None
             self._texture_index[key] = len(self.textures)
@@ -219,7 +220,7 @@ class MaterialResolver:
             return None
         if ym.albedo_texture is not None:
             return ym.albedo_texture, self.scene.where("materials", name, "albedo_texture")
-        if ym.type == "conductor" and isinstance(ym.specular_reflectance, ImageTexture):
+        if ym.type == "conductor" and isinstance(ym.specular_reflectance, (ImageTexture, CheckerboardTexture)):
             return ym.specular_reflectance, self.scene.where("materials", name, "specular_reflectance")
         return None
 

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
-    BeforeValidator,
     Field,
     TypeAdapter,
     ValidationError,
@@ -19,6 +18,7 @@ from pydantic_core import PydanticCustomError
 from ..shading.metals import METALS
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
+from .textures import CheckerboardTexture, UvTransform, is_checkerboard
 
 
 class ImageTexture(StrictModel):
@@ -34,6 +34,8 @@ class ImageTexture(StrictModel):
     """What UVs outside [0, 1] read: the tiled image, the edge texels, or the mirrored image."""
     filter: Literal["bilinear", "nearest"] = "bilinear"
     """Bilinear interpolation of the four nearest texels (in linear RGB), or the nearest texel."""
+    uv: UvTransform | None = None
+    """A transform of the UVs before the lookup (mcpt/scene/textures.py)."""
 
     @field_validator("file", mode="before")
     @classmethod
@@ -46,18 +48,27 @@ def _texture_shorthand(value: Any) -> Any:
     return {"file": value} if isinstance(value, (str, Path)) else value
 
 
-def _colour_or_texture(value: Any, info: ValidationInfo) -> Any:
+def _texture(value: Any, info: ValidationInfo) -> Any:
+    """A texture: a file name or ``{file, ...}`` (an image), or ``{type: checkerboard, ...}``."""
+    if value is None or isinstance(value, (ImageTexture, CheckerboardTexture)):
+        return value
+    return _colour_or_texture(value, info, colours=False)
+
+
+def _colour_or_texture(value: Any, info: ValidationInfo, colours: bool = True) -> Any:
     """``specular_reflectance``: a number is a grey, a list an RGB colour, a string or a mapping an
-    image texture. Validated here, so that an error speaks of the one form that was written."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
+    image texture (or a checkerboard). Validated here, so that an error speaks of the one form
+    that was written."""
+    if colours and isinstance(value, (int, float)) and not isinstance(value, bool):
         value = [value] * 3
     try:
-        if isinstance(value, (list, tuple)):
+        if colours and isinstance(value, (list, tuple)):
             return TypeAdapter(Albedo).validate_python(value, strict=True)
-        return TypeAdapter(ImageTexture).validate_python(_texture_shorthand(value), context=info.context)
+        kind = CheckerboardTexture if is_checkerboard(value) else ImageTexture
+        return TypeAdapter(kind).validate_python(_texture_shorthand(value), context=info.context)
     except ValidationError as exc:
         err = exc.errors()[0]
-        where = "".join(f"item {p}: " for p in err["loc"] if isinstance(p, int))
+        where = "".join(f"item {p}: " if isinstance(p, int) else f"{p}: " for p in err["loc"])
         raise PydanticCustomError("colour_or_texture", "{msg}", {"msg": f"{where}{err['msg']}"}) from None
 
 
@@ -127,8 +138,9 @@ class Material(StrictModel):
     albedo: Albedo | None = None
     """Linear RGB reflectance in [0, 1]; None = the mesh's MTL ``Kd``, else 0.8 grey. For a
     conductor: the reflectance at normal incidence."""
-    albedo_texture: Annotated[ImageTexture | None, BeforeValidator(_texture_shorthand)] = None
-    """An image as the albedo (a file name or ``{file, wrap, filter}``); excludes ``albedo``."""
+    albedo_texture: ImageTexture | CheckerboardTexture | None = None
+    """An image as the albedo (a file name or ``{file, wrap, filter, uv}``) or a checkerboard
+    (``{type: checkerboard, color0, color1, uv}``, mcpt/scene/textures.py); excludes ``albedo``."""
     roughness: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
     """Conductor: GGX alpha in [0, 1]; 0 = mirror."""
     ior: Annotated[float, Field(ge=1.0, le=4.0)] = 1.5
@@ -145,7 +157,7 @@ class Material(StrictModel):
     """Conductor with ``fresnel: conductor``: extinction coefficient (RGB), with ``eta``."""
     metal: Literal[tuple(METALS)] | None = None  # type: ignore[valid-type]
     """Conductor: a measured metal (Au, Ag, Cu, Al, Cr) instead of ``eta`` and ``k``."""
-    specular_reflectance: Albedo | ImageTexture | None = None
+    specular_reflectance: Albedo | ImageTexture | CheckerboardTexture | None = None
     """Conductor: linear RGB factor on the lobe, in [0, 1] (a number: grey), or an image
     (``fresnel: none`` or ``conductor`` only); None = 1."""
     two_sided: bool = True
@@ -160,6 +172,11 @@ class Material(StrictModel):
     @classmethod
     def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
         return None if value is None else _colour_or_texture(value, info)
+
+    @field_validator("albedo_texture", mode="before")
+    @classmethod
+    def _albedo_texture(cls, value: Any, info: ValidationInfo) -> Any:
+        return _texture(value, info)
 
     @model_validator(mode="after")
     def _check_keys(self) -> Material:
@@ -206,7 +223,7 @@ class Material(StrictModel):
                 if key in given:
                     raise FieldError((key,), f"with fresnel: {mode} the conductor's colour is "
                                               f"specular_reflectance, not {key} (Schlick's F0)")
-        elif isinstance(self.specular_reflectance, ImageTexture):
+        elif isinstance(self.specular_reflectance, (ImageTexture, CheckerboardTexture)):
             raise FieldError(("specular_reflectance",), "with fresnel: schlick the texture is "
                                                          "albedo_texture (F0); specular_reflectance is RGB")
 

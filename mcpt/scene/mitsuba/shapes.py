@@ -159,6 +159,6 @@ def relative_paths(data: dict, folder: Path) -> dict:
         if "file" in mesh:
             mesh["file"] = rel(mesh["file"])
     for mat in data.get("materials", {}).values():
-        if "albedo_texture" in mat:
+        if "file" in mat.get("albedo_texture", {}):
             mat["albedo_texture"]["file"] = rel(mat["albedo_texture"]["file"])
     return data

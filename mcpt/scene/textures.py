@@ -1,0 +1,98 @@
+"""Texture descriptions beyond an image file, as the scene file states them: the UV transform
+every texture may carry (``uv``) and the procedural checkerboard (mcpt/shading/checkerboard.py).
+
+    albedo_texture: {type: checkerboard, color0: [0.9, 0.9, 0.9], color1: [0.1, 0.1, 0.1],
+                     uv: {scale: [8, 8]}}
+    albedo_texture: {file: wood.png, uv: {scale: [2, 2], rotation: 30, offset: [0.5, 0]}}
+
+The transform maps the mesh's UVs (v up) to the coordinates the texture is read at:
+uv' = offset + R(rotation) diag(scale) uv (scale first, then a counter-clockwise rotation in
+degrees, then the offset: the order Mitsuba's ``to_uv`` lists them in), or a 2x3 ``matrix``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, model_validator
+
+from .diagnostics import FieldError
+from .fields import Albedo, StrictModel, fixed_list
+
+_Finite = Annotated[float, Field(ge=-1e6, le=1e6)]
+_Pair = Annotated[tuple[_Finite, _Finite], fixed_list(2)]
+_Row = Annotated[tuple[_Finite, _Finite, _Finite], fixed_list(3)]
+
+
+class UvTransform(StrictModel):
+    """An affine map of texture coordinates (Mitsuba's ``to_uv``)."""
+
+    scale: _Pair = (1.0, 1.0)
+    """Factors on u and v (dimensionless; 2 repeats the texture twice across [0, 1])."""
+    rotation: _Finite = 0.0
+    """Counter-clockwise rotation about uv (0, 0) in degrees, after the scale."""
+    offset: _Pair = (0.0, 0.0)
+    """Added last, in texture units (1 = one period)."""
+    matrix: Annotated[tuple[_Row, _Row], fixed_list(2, "rows")] | None = None
+    """The 2x3 matrix itself (rows (a, b, c), (d, e, f): u' = a u + b v + c); excludes the rest."""
+
+    @model_validator(mode="after")
+    def _check(self) -> UvTransform:
+        if self.matrix is not None and self.model_fields_set & {"scale", "rotation", "offset"}:
+            raise FieldError(("matrix",), "give matrix or scale / rotation / offset, not both")
+        if 0.0 in self.scale:
+            raise FieldError(("scale",), f"scale {list(self.scale)} flattens the texture")
+        return self
+
+    def affine(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        if self.matrix is not None:
+            return tuple(tuple(float(x) for x in row) for row in self.matrix)
+        c, s = math.cos(math.radians(self.rotation)), math.sin(math.radians(self.rotation))
+        (sx, sy), (ox, oy) = self.scale, self.offset
+        return ((c * sx, -s * sy, ox), (s * sx, c * sy, oy))
+
+
+IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+
+
+def affine_of(ref: Any) -> tuple:
+    """The 2x3 UV map of a texture reference (identity when it has no ``uv``)."""
+    uv = getattr(ref, "uv", None)
+    return IDENTITY if uv is None else uv.affine()
+
+
+class CheckerboardTexture(StrictModel):
+    """Mitsuba's procedural ``checkerboard``: ``color0`` on the square [0, 1/2)^2 of the
+    (transformed) UVs and every square diagonal to it, ``color1`` on the others."""
+
+    type: Literal["checkerboard"]
+    color0: Albedo = (0.4, 0.4, 0.4)
+    """Linear RGB reflectance of the squares at even (s, t) half-periods (Mitsuba's default 0.4)."""
+    color1: Albedo = (0.2, 0.2, 0.2)
+    """Linear RGB reflectance of the other squares (Mitsuba's default 0.2)."""
+    uv: UvTransform | None = None
+    """The UV transform (scale [8, 8]: 8 x 8 pairs of squares over [0, 1]^2)."""
+
+
+def is_checkerboard(value: Any) -> bool:
+    """Whether a YAML texture value asks for the checkerboard (else it is an image)."""
+    return isinstance(value, dict) and value.get("type") == "checkerboard"
+
+
+def texture_key(ref: Any) -> tuple:
+    """What makes two texture references the same texture (each is built and uploaded once)."""
+    if isinstance(ref, CheckerboardTexture):
+        return ("checkerboard", ref.color0, ref.color1, affine_of(ref))
+    return (str(ref.file), ref.wrap, ref.filter, affine_of(ref))
+
+
+def build_texture(ref: Any):
+    """The shading-side texture of a reference: an image loaded (with its UV map) or a
+    checkerboard."""
+    from ..shading.checkerboard import Checkerboard
+    from ..shading.texture import load_texture
+
+    if isinstance(ref, CheckerboardTexture):
+        return Checkerboard(tuple(ref.color0), tuple(ref.color1), affine_of(ref))
+    return load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref))
