@@ -155,3 +155,28 @@ def test_a_one_colour_checkerboard_renders_as_its_colour(gl, tmp_path):
             p.renderer.release()
     assert images[0].mean() > 0.01
     np.testing.assert_allclose(images[1], images[0], rtol=1e-5, atol=1e-6)
+
+
+def test_gltf_khr_texture_transform_reads_the_texel_gltf_reads(tmp_path):
+    import cv2
+
+    from .test_gltf import small_scene
+
+    ok, png = cv2.imencode(".png", np.full((2, 2, 3), 200, np.uint8))
+    b = small_scene()
+    b.doc["images"] = [{"bufferView": b.view(png.tobytes()), "mimeType": "image/png"}]
+    b.doc["textures"] = [{"source": 0}]
+    ext = {"offset": [0.25, -0.5], "rotation": 0.4, "scale": [2.0, 3.0]}
+    b.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {
+        "index": 0, "extensions": {"KHR_texture_transform": ext}}
+    tex = load_scene(b.write_glb(tmp_path / "t.glb")).materials["grey"].albedo_texture
+    uv_gltf = np.random.default_rng(6).uniform(-1.0, 2.0, (1000, 2))
+    c, s = np.cos(0.4), np.sin(0.4)
+    # The extension's README, written out: scale, then rotate by [[c, s], [-s, c]], then offset.
+    scaled = uv_gltf * [2.0, 3.0]
+    st = np.stack([c * scaled[:, 0] + s * scaled[:, 1], -s * scaled[:, 0] + c * scaled[:, 1]], 1) + [0.25, -0.5]
+    read = apply_uv(tex.uv.affine(), np.stack([uv_gltf[:, 0], 1.0 - uv_gltf[:, 1]], axis=1))
+    np.testing.assert_allclose(read, np.stack([st[:, 0], 1.0 - st[:, 1]], axis=1), atol=1e-9)
+    ext["scale"] = [0.0, 1.0]
+    with pytest.raises(SceneError, match=r"KHR_texture_transform: scale \[0.0, 1.0\] flattens"):
+        load_scene(b.write_glb(tmp_path / "t.glb"))

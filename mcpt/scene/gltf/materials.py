@@ -26,6 +26,7 @@ import numpy as np
 
 from .container import Gltf, obj
 from .images import texture
+from .texture_transform import uv_of_khr_transform
 
 log = logging.getLogger("mcpt")
 
@@ -48,9 +49,11 @@ def _texture_info(g: Gltf, info, where: str, key: str) -> dict:
         raise g.error(where, f"{key} must be an object")
     if info.get("texCoord", 0) != 0:
         raise g.error(where, f"{key}.texCoord {info.get('texCoord')!r}: mcpt reads TEXCOORD_0 only")
-    if "KHR_texture_transform" in obj(info.get("extensions")):
-        log.warning("%s: %s: %s: KHR_texture_transform is ignored", g.path, where, key)
-    return texture(g, info, f"{where}.{key}")
+    out = texture(g, info, f"{where}.{key}")
+    ext = obj(info.get("extensions")).get("KHR_texture_transform")
+    if ext is not None:
+        out.update(uv_of_khr_transform(g, ext, f"{where}: {key}.extensions.KHR_texture_transform"))
+    return out
 
 
 def _emission(g: Gltf, m: dict, where: str) -> list[float] | None:
