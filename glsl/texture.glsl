@@ -48,8 +48,9 @@ float tex_reduce(float u, uint mode) {
 
 vec3 tex_pixel(uvec4 hdr, int x, int y) {
     int i = y * int(hdr.y) + x;
-    uvec4 q = texelFetch(u_textures, int(hdr.x) + (i >> 2));
-    return srgb_decode(q[i & 3]);
+    uint p = texelFetch(u_textures, int(hdr.x) + (i >> 2))[i & 3];
+    if ((hdr.w & 32u) != 0u) return vec3(uvec3(p, p >> 8, p >> 16) & 0xffu) * (1.0 / 255.0);  // linear
+    return srgb_decode(p);
 }
 
 // Linear RGB of texture `id` at (u, v); v points up (row 0 of the buffer is the image's bottom).

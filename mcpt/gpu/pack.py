@@ -29,6 +29,7 @@ import numpy as np
 
 from ..shading.camera import basis
 from ..shading.lights import material_light_pdf_area
+from ..shading.normal_map import pack_normal_maps, pack_tangents
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
 from ..shapes.geometry import pack_triangles
@@ -37,7 +38,8 @@ from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-         "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+         "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles"),
+         "tangents": (1, "triangles")}
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,10 @@ def pack(world: World, features: Features) -> Packed:
     if features.textures and world.textures:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
+    if features.normal_maps:  # the map table always (every material is looked up; the uber-shader)
+        buffers["normal_maps"] = pack_normal_maps(world.materials.normal_map)
+        if world.tangents is not None:
+            buffers["tangents"] = pack_tangents(world.tangents)
     f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
     uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
                 "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,

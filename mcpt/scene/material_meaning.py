@@ -27,7 +27,7 @@ from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from .materials import ImageTexture, Material
 from .model import Mesh, Scene
-from .textures import CheckerboardTexture, build_texture, texture_key
+from .textures import CheckerboardTexture, NormalMap, build_normal_map, build_texture, texture_key
 
 log = logging.getLogger("mcpt")
 
@@ -63,6 +63,7 @@ class MaterialRow:
     eta: RGB = (1.0, 1.0, 1.0)
     k: RGB = BLACK
     one_sided: bool = False
+    normal_map: object = None  # the YAML NormalMap, then (texture id, scale, right_handed) (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -118,7 +119,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     emission = tuple(ym.emission) if ym.emission is not None else ke
     return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
-                       one_sided=not ym.two_sided, **conductor_columns(ym))
+                       one_sided=not ym.two_sided, normal_map=ym.normal_map, **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -140,9 +141,14 @@ class MaterialResolver:
         ym = self.yaml_material(spec)
         return bool(ym is not None and ym.smooth_normals)
 
+    def needs_tangents(self, spec: Mesh) -> bool:
+        """Whether the mesh's material has a normal map (tangents from its UVs)."""
+        ym = self.yaml_material(spec)
+        return bool(ym is not None and ym.normal_map is not None)
+
     def needs_uvs(self, spec: Mesh, file_materials) -> bool:
         """Whether some material of the mesh reads a texture (read UVs)."""
-        if self._yaml_texture(spec) is not None:
+        if self._yaml_texture(spec) is not None or self.needs_tangents(spec):
             return True
         return albedo_from_file(self.yaml_material(spec)) and any(m.kd_map is not None for m in file_materials)
 
@@ -188,7 +194,8 @@ class MaterialResolver:
                              texture=col("texture", np.int64), smooth=col("smooth", bool),
                              sigma_a=rgb("sigma_a"), fresnel=tuple(r.fresnel for r in rows),
                              spec=rgb("spec"), eta=rgb("eta"), k=rgb("k"),
-                             one_sided=col("one_sided", bool))
+                             one_sided=col("one_sided", bool),
+                             normal_map=tuple(r.normal_map for r in rows))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -198,14 +205,21 @@ class MaterialResolver:
                 t = self._texture_id(tex, tex_where)
                 # The albedo column is informative only for a textured row: the shader reads texels.
                 row = replace(row, texture=t, albedo=tuple(self.textures[t].mean_linear()))
+            if row.normal_map is not None:
+                row = replace(row, normal_map=self._normal_map(row.name, row.normal_map))
             self.rows.append(row)
         return self._index[key]
+
+    def _normal_map(self, name: str, ref: NormalMap) -> tuple:
+        """The table's normal-map column: (texture id, scale, right-handed frame)."""
+        t = self._texture_id(ref, self.scene.where("materials", name, "normal_map"))
+        return (t, ref.scale, ref.handedness == "right")
 
     def _texture_id(self, ref, where: str) -> int:
         key = texture_key(ref)
         if key not in self._texture_index:
             try:
-                texture = build_texture(ref)
+                texture = build_normal_map(ref) if isinstance(ref, NormalMap) else build_texture(ref)
             except TextureError as exc:  # name the scene line and key, not only the image
                 raise TextureError(f"{where}: {exc}") from None
             self._texture_index[key] = len(self.textures)

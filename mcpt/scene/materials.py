@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
+    BeforeValidator,
     Field,
     TypeAdapter,
     ValidationError,
@@ -18,7 +19,7 @@ from pydantic_core import PydanticCustomError
 from ..shading.metals import METALS
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
-from .textures import CheckerboardTexture, UvTransform, is_checkerboard
+from .textures import CheckerboardTexture, NormalMap, UvTransform, is_checkerboard, normal_map_shorthand
 
 
 class ImageTexture(StrictModel):
@@ -164,6 +165,9 @@ class Material(StrictModel):
     """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
     """Emitted radiance (W sr^-1 m^-2, linear RGB, >= 0), front side only; None = MTL ``Ke``, else 0."""
+    normal_map: Annotated[NormalMap | None, BeforeValidator(normal_map_shorthand)] = None
+    """A tangent-space normal map (a file name or ``{file, scale, handedness, wrap, filter, uv}``,
+    mcpt/scene/textures.py); any type."""
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""

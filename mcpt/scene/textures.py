@@ -13,12 +13,13 @@ degrees, then the offset: the order Mitsuba's ``to_uv`` lists them in), or a 2x3
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from .diagnostics import FieldError
-from .fields import Albedo, StrictModel, fixed_list
+from .fields import Albedo, StrictModel, fixed_list, texture_file
 
 _Finite = Annotated[float, Field(ge=-1e6, le=1e6)]
 _Pair = Annotated[tuple[_Finite, _Finite], fixed_list(2)]
@@ -82,6 +83,8 @@ def is_checkerboard(value: Any) -> bool:
 
 def texture_key(ref: Any) -> tuple:
     """What makes two texture references the same texture (each is built and uploaded once)."""
+    if isinstance(ref, NormalMap):
+        return ("normal", str(ref.file), ref.wrap, ref.filter, affine_of(ref))
     if isinstance(ref, CheckerboardTexture):
         return ("checkerboard", ref.color0, ref.color1, affine_of(ref))
     return (str(ref.file), ref.wrap, ref.filter, affine_of(ref))
@@ -96,3 +99,40 @@ def build_texture(ref: Any):
     if isinstance(ref, CheckerboardTexture):
         return Checkerboard(tuple(ref.color0), tuple(ref.color1), affine_of(ref))
     return load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref))
+
+
+class NormalMap(StrictModel):
+    """A tangent-space normal map (mcpt/shading/normal_map.py): an RGB image read LINEARLY (8 bits,
+    c / 255, no sRGB curve), texel c -> normal (2c - 1) in the frame (T, B, N) of the mesh's UVs
+    (T along increasing u, B along increasing v: the image's up, OpenGL / glTF / Blender)."""
+
+    file: Path
+    """Image file (PNG, ...; 16-bit is rounded to 8), relative to the scene file's folder."""
+    scale: Annotated[float, Field(ge=0.0, le=100.0)] = 1.0
+    """Factor on the map's x and y before normalising (glTF's normalTexture.scale); 0: flat."""
+    handedness: Literal["uv", "right"] = "uv"
+    """``uv``: B's side from the UV layout, per vertex (MikkTSpace: mirrored UVs work); ``right``:
+    B = N x T always (Mitsuba's normalmap frame)."""
+    wrap: Literal["repeat", "clamp", "mirror"] = "repeat"
+    filter: Literal["bilinear", "nearest"] = "bilinear"
+    uv: UvTransform | None = None
+
+    @field_validator("file", mode="before")
+    @classmethod
+    def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
+        return texture_file(value, info)
+
+
+def normal_map_shorthand(value: Any) -> Any:
+    """``normal_map: bumps.png`` is short for ``normal_map: {file: bumps.png}``."""
+    return {"file": value} if isinstance(value, (str, Path)) else value
+
+
+def build_normal_map(ref: NormalMap):
+    """The normal map's texture (linear), refused in one line if it is no normal map."""
+    from ..shading.normal_map import check_normal_map
+    from ..shading.texture import load_texture
+
+    texture = load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref), linear=True)
+    check_normal_map(texture)
+    return texture

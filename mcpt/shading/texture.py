@@ -9,7 +9,8 @@ All textures of a scene share one RGBA32UI buffer texture ("textures", mcpt/gpu/
 
     texel j < n:        header of texture j: (first data texel, width, height, flags)
                         flags: bits 0-1 wrap (0 repeat, 1 clamp, 2 mirror), bit 2 nearest filter,
-                        bit 3 a UV transform leads the data, bit 4 procedural checkerboard
+                        bit 3 a UV transform leads the data, bit 4 procedural checkerboard,
+                        bit 5 linear (c / 255, not sRGB-decoded: normal maps)
     [transform]:        with bit 3, 2 texels of float bits (a, b, c, d), (e, f, 0, 0): the lookup
                         reads (a u + b v + c, d u + e v + f) (Mitsuba's ``to_uv``; uv_transform)
     data texels:        4 pixels per texel, one uint each: R | G << 8 | B << 16 | A << 24 (sRGB),
@@ -34,6 +35,7 @@ WRAP = {"repeat": 0, "clamp": 1, "mirror": 2}
 FLAG_NEAREST = 4
 FLAG_TRANSFORM = 8     # 2 texels of UV transform lead the data
 FLAG_CHECKERBOARD = 16  # procedural: the data are two colours (mcpt/shading/checkerboard.py)
+FLAG_LINEAR = 32        # texels are linear values c / 255 (normal maps), not sRGB
 IDENTITY_UV = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
 
 
@@ -48,6 +50,7 @@ class Texture:
     filter: str
     srgb: np.ndarray   # (H, W, 3) uint8, sRGB-encoded, row 0 = BOTTOM of the image (v = 0)
     uv: tuple = IDENTITY_UV  # 2x3 affine map applied to the UVs before the lookup (v up)
+    linear: bool = False     # texels are c / 255 (a normal map), not sRGB-encoded
 
     @property
     def width(self) -> int:
@@ -60,7 +63,8 @@ class Texture:
     @property
     def flags(self) -> int:
         transformed = FLAG_TRANSFORM if not is_identity(self.uv) else 0
-        return WRAP[self.wrap] | (FLAG_NEAREST if self.filter == "nearest" else 0) | transformed
+        return (WRAP[self.wrap] | (FLAG_NEAREST if self.filter == "nearest" else 0) | transformed
+                | (FLAG_LINEAR if self.linear else 0))
 
     def texels(self) -> np.ndarray:
         """The data texels: the UV transform if any, then the pixels, 4 per texel."""
@@ -69,8 +73,12 @@ class Texture:
         px = np.concatenate([px, np.zeros((-px.size) % 4, np.uint32)]).reshape(-1, 4)
         return np.concatenate([uv_texels(self.uv), px]) if self.flags & FLAG_TRANSFORM else px
 
+    def decoded(self) -> np.ndarray:
+        """(H, W, 3) float64 values the shader filters: sRGB-decoded, or c / 255 if linear."""
+        return self.srgb / 255.0 if self.linear else srgb_to_linear(self.srgb)
+
     def mean_linear(self) -> np.ndarray:
-        return srgb_to_linear(self.srgb).reshape(-1, 3).mean(axis=0)
+        return self.decoded().reshape(-1, 3).mean(axis=0)
 
 
 def is_identity(uv) -> bool:
@@ -91,7 +99,8 @@ def apply_uv(uv_map, uv: np.ndarray) -> np.ndarray:
     return np.asarray(uv, np.float64) @ m[:, :2].T + m[:, 2]
 
 
-def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=IDENTITY_UV) -> Texture:
+def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=IDENTITY_UV,
+                 linear: bool = False) -> Texture:
     import cv2  # only scenes with textures pay for the import
 
     path = Path(path)
@@ -112,7 +121,7 @@ def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=
         img = img[:, :, 2::-1]  # BGR(A) -> RGB
     if img.shape[0] < 1 or img.shape[1] < 1:
         raise TextureError(f"{path}: empty image")
-    return Texture(path, wrap, filter, np.ascontiguousarray(img[::-1]), tuple(map(tuple, uv)))
+    return Texture(path, wrap, filter, np.ascontiguousarray(img[::-1]), tuple(map(tuple, uv)), linear)
 
 
 def srgb_to_linear(c) -> np.ndarray:
@@ -157,7 +166,7 @@ def lookup(t, uv: np.ndarray) -> np.ndarray:
     uv = apply_uv(t.uv, uv)
     if not isinstance(t, Texture):
         return t.lookup(uv)
-    lin = srgb_to_linear(t.srgb)
+    lin = t.decoded()
     u, v = _reduce(uv[:, 0], t.wrap), _reduce(uv[:, 1], t.wrap)
     if t.filter == "nearest":
         x = _wrap_index(np.floor(u * t.width).astype(np.int64), t.width, t.wrap)

@@ -11,7 +11,9 @@ What maps (README "glTF 2.0 scenes" has the full table):
 * ``baseColorTexture`` (sRGB) -> ``albedo_texture`` (with the factor ignored, warned, if it is not
   white); ``emissiveFactor`` x ``KHR_materials_emissive_strength`` -> ``emission`` (an
   ``emissiveTexture`` scales it by the image's mean, warned); ``doubleSided`` -> ``two_sided``.
-* ignored with a warning: metallicRoughnessTexture, normalTexture, occlusionTexture, alphaMode
+* ``normalTexture`` (linear, tangent space, ``scale``) -> ``normal_map`` with MikkTSpace-style
+  tangents from the UVs (mcpt/shading/normal_map.py); a TANGENT attribute is not read.
+* ignored with a warning: metallicRoughnessTexture, occlusionTexture, alphaMode
   MASK / BLEND and base-colour alpha (rendered opaque), other material extensions.
 
 A primitive without a material gets the spec's default material (section 3.9.6): white,
@@ -32,7 +34,7 @@ log = logging.getLogger("mcpt")
 
 #: Material extensions mapped here; any other is ignored with a warning.
 KNOWN_EXTENSIONS = ("KHR_materials_emissive_strength",)
-IGNORED_TEXTURES = ("metallicRoughnessTexture", "normalTexture", "occlusionTexture")
+IGNORED_TEXTURES = ("metallicRoughnessTexture", "occlusionTexture")
 
 
 def _factor(g: Gltf, obj: dict, key: str, default, where: str, n: int | None = None):
@@ -53,6 +55,13 @@ def _texture_info(g: Gltf, info, where: str, key: str) -> dict:
     ext = obj(info.get("extensions")).get("KHR_texture_transform")
     if ext is not None:
         out.update(uv_of_khr_transform(g, ext, f"{where}: {key}.extensions.KHR_texture_transform"))
+    return out
+
+
+def _normal_map(g: Gltf, info, where: str) -> dict:
+    """normalTexture -> mcpt's ``normal_map`` (glTF's tangent frame: MikkTSpace, ``uv``)."""
+    out = _texture_info(g, info, where, "normalTexture")
+    out["scale"] = _factor(g, info, "scale", 1.0, f"{where}: normalTexture")
     return out
 
 
@@ -123,6 +132,8 @@ def material(g: Gltf, index: int | None) -> dict:
     if 0.0 < metallic < 1.0:
         log.warning("%s: %s: metallicFactor %.3g rounded to %s", g.path, where, metallic,
                     "metal (conductor)" if metallic >= 0.5 else "non-metal (diffuse)")
+    if "normalTexture" in m:
+        out["normal_map"] = _normal_map(g, m["normalTexture"], where)
     emission = _emission(g, m, where)
     if emission is not None:
         out["emission"] = emission

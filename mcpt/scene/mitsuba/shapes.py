@@ -159,6 +159,7 @@ def relative_paths(data: dict, folder: Path) -> dict:
         if "file" in mesh:
             mesh["file"] = rel(mesh["file"])
     for mat in data.get("materials", {}).values():
-        if "file" in mat.get("albedo_texture", {}):
-            mat["albedo_texture"]["file"] = rel(mat["albedo_texture"]["file"])
+        for key in ("albedo_texture", "normal_map"):
+            if "file" in mat.get(key, {}):
+                mat[key]["file"] = rel(mat[key]["file"])
     return data

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..fields import TEXTURE_SUFFIXES
 from . import values as V
-from .xmltree import Node
+from .xmltree import Node, deref
 
 SUPPORTED = ("bitmap", "checkerboard")
 
@@ -66,10 +66,29 @@ def _checkerboard(node: Node, props: dict[str, Node]) -> dict:
             "color1": _colour(props, node, "color1", 0.2), **_uv(props, checkerboard=True)}
 
 
-def texture(node: Node) -> dict:
+def normal_map(bsdf: Node, ids: dict[str, Node], nested_material) -> dict:
+    """A ``normalmap`` BSDF: its nested BSDF's material (``nested_material(node)``) with
+    ``normal_map`` set. The map must be a ``bitmap`` with ``raw=true`` (Mitsuba sRGB-decodes one
+    without, which no normal map means); Mitsuba's frame: B = N x T (``handedness: right``)."""
+    maps = [c for c in bsdf.children if c.tag in ("texture", "ref") and c.get("name") == "normalmap"]
+    inner = [c for c in bsdf.children if c.tag in ("bsdf", "ref") and c not in maps]
+    if len(maps) != 1 or len(inner) != 1:
+        raise bsdf.error("a normalmap needs one <texture name=\"normalmap\"> and one nested BSDF")
+    tex = deref(maps[0], ids)
+    if tex.tag != "texture":
+        raise maps[0].error(f"expected a texture, got <{tex.tag}>")
+    props = V.properties(tex)
+    if tex.get("type") != "bitmap" or "raw" not in props or not V.as_bool(props["raw"]):
+        raise tex.error("a normal map must be a bitmap with raw=true (mcpt reads normal maps linearly)")
+    out = nested_material(inner[0])
+    out["normal_map"] = {**texture(tex, raw=True), "handedness": "right"}
+    return out
+
+
+def texture(node: Node, raw: bool = False) -> dict:
     """A ``<texture>`` as mcpt's texture data (``albedo_texture``); one located error if refused.
     A bitmap's 8-bit images are sRGB-decoded, which is what Mitsuba does with ``raw=false`` (the
-    default) for PNG/JPEG; ``raw=true`` is refused."""
+    default) for PNG/JPEG; ``raw=true`` is refused (``raw``: a normal map's, read linearly)."""
     kind = node.get("type")
     if kind not in SUPPORTED:
         raise node.error(f"not supported by mcpt (supported textures: {', '.join(SUPPORTED)})")
@@ -82,7 +101,7 @@ def texture(node: Node) -> dict:
     if path.suffix.lower() not in TEXTURE_SUFFIXES:
         raise props["filename"].error(f"{path.suffix or '(none)'} images are not supported by mcpt "
                                       f"(8-bit formats: {', '.join(TEXTURE_SUFFIXES)})")
-    if "raw" in props and V.as_bool(props["raw"]):
+    if not raw and "raw" in props and V.as_bool(props["raw"]):
         raise props["raw"].error("raw=true is not supported by mcpt (8-bit images are read as sRGB)")
     out: dict = {"file": str(path), **_uv(props, checkerboard=False)}
     if "wrap_mode" in props:
