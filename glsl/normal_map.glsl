@@ -1,8 +1,10 @@
 // Tangent-space normal maps (host side: mcpt/shading/normal_map.py, which documents the buffers
-// and the tangents). Compiled only with MCPT_NORMAL_MAPS; normal_map_apply always.
+// and the tangents), and bump maps (glsl/bump_map.glsl), which share its buffers and its rules.
+// Compiled only with MCPT_NORMAL_MAPS; normal_map_shadow and normal_map_apply always.
 #include "geometry.glsl"
 #include "normals.glsl"
 #include "texture.glsl"
+#include "bump_map.glsl"
 
 #if MCPT_NORMAL_MAPS
 layout(binding = 12) uniform usamplerBuffer u_tangents;     // 1 texel per triangle (BVH order)
@@ -25,6 +27,18 @@ vec3 any_tangent(vec3 n) {
     float s = n.z >= 0.0 ? 1.0 : -1.0;
     float a = -1.0 / (s + n.z);
     return vec3(1.0 + s * n.x * n.x * a, s * n.x * n.y * a, -s * n.x);
+}
+
+// The front side's mapped normal of a normal map (texture `tex`, x / y times `scale`; `right`:
+// B = N x T, Mitsuba's frame) at hit h on a surface of front-side shading normal nf.
+vec3 mapped_normal(int tex, float scale, bool right, Hit h, vec3 nf) {
+    float hand;
+    vec3 t = tri_tangent(h.tri, h.bary, hand);
+    t -= nf * dot(nf, t);
+    t = dot(t, t) > 1e-12 ? normalize(t) : any_tangent(nf);
+    vec3 b = (right ? 1.0 : hand) * cross(nf, t);
+    vec3 c = (texture_rgb(tex, tri_uv(h.tri, h.bary)) * 2.0 - 1.0) * vec3(scale, scale, 1.0);
+    return normalize(c.x * t + c.y * b + c.z * nf);
 }
 #endif
 
@@ -63,15 +77,9 @@ bool normal_map_apply(Hit h, bool front, vec3 wo, inout vec3 ns) {
     uvec4 r = texelFetch(u_normal_maps, tri_material(h.tri));
     if (r.x == 0xffffffffu) return true;
     vec3 nf = front ? ns : -ns;
-    float hand;
-    vec3 t = tri_tangent(h.tri, h.bary, hand);
-    t -= nf * dot(nf, t);
-    t = dot(t, t) > 1e-12 ? normalize(t) : any_tangent(nf);
-    if ((r.y & 1u) != 0u) hand = 1.0;
-    vec3 b = hand * cross(nf, t);
     float scale = uintBitsToFloat(r.z);
-    vec3 c = (texture_rgb(int(r.x), tri_uv(h.tri, h.bary)) * 2.0 - 1.0) * vec3(scale, scale, 1.0);
-    vec3 n = normalize(c.x * t + c.y * b + c.z * nf);
+    vec3 n = (r.y & 2u) != 0u ? bump_normal(int(r.x), scale, h, nf)
+                              : mapped_normal(int(r.x), scale, (r.y & 1u) != 0u, h, nf);
     n = front ? n : n - 2.0 * dot(n, nf) * nf;
     if (dot(n, wo) <= 0.0) n = 2.0 * dot(n, ns) * ns - n;
     float cn = dot(n, ns);

@@ -160,3 +160,52 @@ def test_gltf_normal_texture_becomes_a_normal_map_with_its_scale(tmp_path):
     b.doc["materials"][0]["normalTexture"] = {"index": 0, "scale": 0.5}
     nm = load_scene(b.write_glb(tmp_path / "t.glb")).materials["grey"].normal_map
     assert nm.scale == 0.5 and nm.handedness == "uv"
+
+
+# ----------------------------------------------------------------------------------------------
+# bump maps (Mitsuba's bumpmap; bench/scenes-xml/bumpmap.xml side by side)
+
+
+def test_constant_slope_bump_map_matches_the_closed_form(gl, tmp_path):
+    """A height ramp along u (256 texels 0..255: d h / d u = 256/255 exactly, linear) tilts the
+    rectangle's normal by the same angle everywhere inside it; the furnace then gives the closed
+    form of that tilted normal (bumped_normal, the numpy reference of glsl/bump_map.glsl)."""
+    import cv2
+
+    from mcpt.shading.bump_map import bumped_normal
+
+    ramp = np.tile(np.arange(256, dtype=np.uint8)[None, :], (8, 1))
+    png = tmp_path / "ramp.png"
+    cv2.imwrite(str(png), ramp)
+    scale = 0.8
+    img = _furnace(tmp_path, f"{{albedo: [0.5, 0.5, 0.5], bump_map: {{file: {png}, scale: {scale}, wrap: clamp}}}}",
+                   spp=256)
+    # mcpt's rectangle (Mitsuba's [-1, 1]^2, uv v flipped): dp/du = (2, 0, 0), dp/dv = (0, -2, 0).
+    n = bumped_normal([2, 0, 0], [0, -2, 0], [0, 0, 1], [256 / 255, 0.0], scale)
+    assert n[0] < -0.3  # heights rise along +x: the normal leans back
+    want = _tilted_furnace_answer(n, 0.5)
+    centre = img[3:9, 3:9].ravel()
+    se = centre.std() / math.sqrt(centre.size) + 1e-4
+    assert abs(centre.mean() - want) < 4 * se + 5e-4, (centre.mean(), want)
+
+
+def test_xml_bumpmap_maps_scale_and_encoding(tmp_path):
+    import cv2
+
+    png = tmp_path / "h.png"
+    cv2.imwrite(str(png), np.full((4, 4), 100, np.uint8))
+    camera = ROOT / "tests" / "data" / "mitsuba" / "camera.xml"
+    path = tmp_path / "s.xml"
+
+    def xml(tex_extra: str) -> dict:
+        path.write_text(f'<scene version="3.0.0"><include filename="{camera}"/><shape type="rectangle">'
+                        f'<bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="{png}"/>'
+                        f'{tex_extra}</texture><float name="scale" value="0.2"/><bsdf type="plastic"/></bsdf>'
+                        '</shape></scene>')
+        return next(iter(scene_data(path)[0]["materials"].values()))
+
+    mat = xml('<boolean name="raw" value="true"/>')
+    assert mat["type"] == "plastic" and mat["bump_map"]["scale"] == 0.2 and mat["bump_map"]["encoding"] == "linear"
+    assert xml("")["bump_map"]["encoding"] == "srgb"
+    with pytest.raises(SceneError, match=r"to_uv on a bump map is not supported"):
+        xml('<transform name="to_uv"><scale x="2"/></transform>')

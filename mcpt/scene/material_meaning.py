@@ -27,7 +27,15 @@ from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from .materials import ImageTexture, Material
 from .model import Mesh, Scene
-from .textures import CheckerboardTexture, NormalMap, build_normal_map, build_texture, texture_key
+from .textures import (
+    BumpMap,
+    CheckerboardTexture,
+    NormalMap,
+    build_bump_map,
+    build_normal_map,
+    build_texture,
+    texture_key,
+)
 
 log = logging.getLogger("mcpt")
 
@@ -119,7 +127,8 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     emission = tuple(ym.emission) if ym.emission is not None else ke
     return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
-                       one_sided=not ym.two_sided, normal_map=ym.normal_map, **conductor_columns(ym))
+                       one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
+                       **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -148,7 +157,8 @@ class MaterialResolver:
 
     def needs_uvs(self, spec: Mesh, file_materials) -> bool:
         """Whether some material of the mesh reads a texture (read UVs)."""
-        if self._yaml_texture(spec) is not None or self.needs_tangents(spec):
+        ym = self.yaml_material(spec)
+        if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map)):
             return True
         return albedo_from_file(self.yaml_material(spec)) and any(m.kd_map is not None for m in file_materials)
 
@@ -210,16 +220,18 @@ class MaterialResolver:
             self.rows.append(row)
         return self._index[key]
 
-    def _normal_map(self, name: str, ref: NormalMap) -> tuple:
-        """The table's normal-map column: (texture id, scale, right-handed frame)."""
-        t = self._texture_id(ref, self.scene.where("materials", name, "normal_map"))
-        return (t, ref.scale, ref.handedness == "right")
+    def _normal_map(self, name: str, ref) -> tuple:
+        """The table's normal-map column: (texture id, scale, right-handed frame, bump)."""
+        bump = isinstance(ref, BumpMap)
+        t = self._texture_id(ref, self.scene.where("materials", name, "bump_map" if bump else "normal_map"))
+        return (t, ref.scale, not bump and ref.handedness == "right", bump)
 
     def _texture_id(self, ref, where: str) -> int:
         key = texture_key(ref)
         if key not in self._texture_index:
             try:
-                texture = build_normal_map(ref) if isinstance(ref, NormalMap) else build_texture(ref)
+                texture = (build_normal_map(ref) if isinstance(ref, NormalMap) else
+                           build_bump_map(ref) if isinstance(ref, BumpMap) else build_texture(ref))
             except TextureError as exc:  # name the scene line and key, not only the image
                 raise TextureError(f"{where}: {exc}") from None
             self._texture_index[key] = len(self.textures)

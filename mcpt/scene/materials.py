@@ -19,7 +19,14 @@ from pydantic_core import PydanticCustomError
 from ..shading.metals import METALS
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
-from .textures import CheckerboardTexture, NormalMap, UvTransform, is_checkerboard, normal_map_shorthand
+from .textures import (
+    BumpMap,
+    CheckerboardTexture,
+    NormalMap,
+    UvTransform,
+    is_checkerboard,
+    normal_map_shorthand,
+)
 
 
 class ImageTexture(StrictModel):
@@ -168,6 +175,9 @@ class Material(StrictModel):
     normal_map: Annotated[NormalMap | None, BeforeValidator(normal_map_shorthand)] = None
     """A tangent-space normal map (a file name or ``{file, scale, handedness, wrap, filter, uv}``,
     mcpt/scene/textures.py); any type."""
+    bump_map: Annotated[BumpMap | None, BeforeValidator(normal_map_shorthand)] = None
+    """A height image (a file name or ``{file, scale, encoding, wrap}``, mcpt/scene/textures.py);
+    any type; excludes ``normal_map``."""
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
@@ -193,6 +203,8 @@ class Material(StrictModel):
                 )
         if self.albedo is not None and self.albedo_texture is not None:
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
+        if self.normal_map is not None and self.bump_map is not None:
+            raise FieldError(("bump_map",), "give normal_map or bump_map, not both")
         if self.type == "conductor":
             self._check_fresnel()
         return self

@@ -85,6 +85,8 @@ def texture_key(ref: Any) -> tuple:
     """What makes two texture references the same texture (each is built and uploaded once)."""
     if isinstance(ref, NormalMap):
         return ("normal", str(ref.file), ref.wrap, ref.filter, affine_of(ref))
+    if isinstance(ref, BumpMap):
+        return ("bump", str(ref.file), ref.wrap, ref.encoding)
     if isinstance(ref, CheckerboardTexture):
         return ("checkerboard", ref.color0, ref.color1, affine_of(ref))
     return (str(ref.file), ref.wrap, ref.filter, affine_of(ref))
@@ -136,3 +138,28 @@ def build_normal_map(ref: NormalMap):
     texture = load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref), linear=True)
     check_normal_map(texture)
     return texture
+
+
+class BumpMap(StrictModel):
+    """A bump map (mcpt/shading/bump_map.py): a height image (a texel's height is its luminance)
+    whose bilinear gradient tilts the normal, Mitsuba's ``bumpmap``."""
+
+    file: Path
+    """Image file, relative to the scene file's folder."""
+    scale: Annotated[float, Field(ge=-1e3, le=1e3)] = 1.0
+    """World units per unit of height (the image's values in [0, 1]); negative: dents."""
+    encoding: Literal["linear", "srgb"] = "linear"
+    """``linear``: height c / 255 (Mitsuba's raw=true); ``srgb``: sRGB-decoded (raw=false)."""
+    wrap: Literal["repeat", "clamp", "mirror"] = "repeat"
+
+    @field_validator("file", mode="before")
+    @classmethod
+    def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
+        return texture_file(value, info)
+
+
+def build_bump_map(ref: BumpMap):
+    """The bump map's height texture (bilinear: the gradient needs it)."""
+    from ..shading.texture import load_texture
+
+    return load_texture(ref.file, ref.wrap, "bilinear", linear=ref.encoding == "linear")

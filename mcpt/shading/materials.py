@@ -90,7 +90,7 @@ class MaterialTable:
     eta: np.ndarray = None      # (M, 3) conductor complex index, real part (fresnel: conductor)
     k: np.ndarray = None        # (M, 3) conductor complex index, imaginary part
     one_sided: np.ndarray = None  # (M,) bool: the back side is black
-    normal_map: tuple = None    # (M,) (texture id, scale, right_handed) or None (mcpt/shading/normal_map.py)
+    normal_map: tuple = None    # (M,) (texture id, scale, right_handed, bump) or None (mcpt/shading/normal_map.py)
 
     def __post_init__(self):
         m = len(self.names)

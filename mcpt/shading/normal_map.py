@@ -5,7 +5,8 @@ buffers the shader reads.
                  octahedral-encoded (mcpt/shading/normals.py), then per corner k: bit k set,
                  B = -N x T (handedness); bit k + 3 set, no tangent (degenerate UVs)
     normal_maps  1 RGBA32UI texel per material: (normal-map texture id or 0xffffffff, flags,
-                 scale (float bits), 0); flags bit 0: B = N x T always (Mitsuba's frame)
+                 scale (float bits), 0); flags bit 0: B = N x T always (Mitsuba's frame),
+                 bit 1: the texture is a bump (height) map (mcpt/shading/bump_map.py)
 
 Tangents (:func:`vertex_tangents`) follow what MikkTSpace computes for a glTF / Blender bake on
 the usual meshes: per face the direction of increasing u (dp/du) and of increasing v (dp/dv, v up:
@@ -31,6 +32,7 @@ from .texture import TextureError
 
 NO_MAP = 0xFFFFFFFF
 FLAG_RIGHT_HANDED = 1     # B = N x T always (Mitsuba), not by the UVs' handedness (MikkTSpace)
+FLAG_BUMP = 2             # a height map (mcpt/shading/bump_map.py)
 
 
 def vertex_tangents(vertices: np.ndarray, faces: np.ndarray, uvs: np.ndarray,
@@ -88,13 +90,14 @@ def pack_tangents(corner_tangents: np.ndarray) -> np.ndarray:
 
 def pack_normal_maps(normal_map: tuple) -> np.ndarray:
     """One RGBA32UI texel per material from the table's ``normal_map`` column ((texture id,
-    scale, right_handed) or None)."""
+    scale, right_handed, bump) or None)."""
     out = np.zeros((max(len(normal_map), 1), 4), np.uint32)
     out[:, 0] = NO_MAP
     for i, nm in enumerate(normal_map):
         if nm is not None:
-            tex, scale, right = nm
-            out[i] = (tex, FLAG_RIGHT_HANDED if right else 0, np.float32(scale).view(np.uint32), 0)
+            tex, scale, right, bump = nm
+            flags = (FLAG_RIGHT_HANDED if right else 0) | (FLAG_BUMP if bump else 0)
+            out[i] = (tex, flags, np.float32(scale).view(np.uint32), 0)
     return out
 
 

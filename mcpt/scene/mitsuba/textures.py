@@ -85,6 +85,29 @@ def normal_map(bsdf: Node, ids: dict[str, Node], nested_material) -> dict:
     return out
 
 
+def bump_map(bsdf: Node, ids: dict[str, Node], nested_material) -> dict:
+    """A ``bumpmap`` BSDF: its nested BSDF's material with ``bump_map`` set: one nested bitmap
+    (bilinear, no ``to_uv``), ``scale`` (default 1); ``raw`` picks linear or sRGB heights."""
+    maps = [c for c in bsdf.children if c.tag in ("texture", "ref") and deref(c, ids).tag == "texture"]
+    inner = [c for c in bsdf.children if c.tag in ("bsdf", "ref") and c not in maps]
+    if len(maps) != 1 or len(inner) != 1:
+        raise bsdf.error("a bumpmap needs one nested texture and one nested BSDF")
+    tex = deref(maps[0], ids)
+    props = V.properties(tex)
+    if tex.get("type") != "bitmap":
+        raise tex.error("a bump map must be a bitmap in mcpt")
+    for key, bad in (("to_uv", None), ("filter_type", "nearest")):
+        if key in props and (bad is None or V.as_string(props[key]) == bad):
+            raise props[key].error(f"{key} on a bump map is not supported by mcpt")
+    data = texture(tex, raw=True)
+    out = nested_material(inner[0])
+    bprops = V.properties(bsdf)
+    out["bump_map"] = {"file": data["file"], "wrap": data.get("wrap", "repeat"),
+                       "scale": V.as_float(bprops["scale"]) if "scale" in bprops else 1.0,
+                       "encoding": "linear" if "raw" in props and V.as_bool(props["raw"]) else "srgb"}
+    return out
+
+
 def texture(node: Node, raw: bool = False) -> dict:
     """A ``<texture>`` as mcpt's texture data (``albedo_texture``); one located error if refused.
     A bitmap's 8-bit images are sRGB-decoded, which is what Mitsuba does with ``raw=false`` (the
