@@ -6,9 +6,12 @@
 #include "texture.glsl"
 #include "bump_map.glsl"
 
+#if MCPT_NORMAL_MAPS || MCPT_OPACITY
+layout(binding = 13) uniform usamplerBuffer u_normal_maps;  // 1 texel per material (+ opacity)
+#endif
+
 #if MCPT_NORMAL_MAPS
 layout(binding = 12) uniform usamplerBuffer u_tangents;     // 1 texel per triangle (BVH order)
-layout(binding = 13) uniform usamplerBuffer u_normal_maps;  // 1 texel per material
 
 // The tangent frame's T and handedness at hit h: corner tangents interpolated (a corner without
 // one adds nothing), the sign of the interpolated handedness.

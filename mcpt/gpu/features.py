@@ -88,6 +88,7 @@ class Uses:
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
     normal_maps: bool = False       # some material has a normal map: tangent and map buffers
+    opacity: bool = False           # some material has an opacity texture: any-hit test in traversal
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
@@ -99,7 +100,7 @@ class Uses:
         return dataclasses.replace(
             self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
             dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
-            fresnel_complex=True, one_sided=True, normal_maps=True)
+            fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True)
 
     @property
     def delta(self) -> bool:
@@ -221,6 +222,7 @@ class Features:
     bvh_dense = property(lambda self: self.compiled.bvh_dense)
     textures = property(lambda self: self.compiled.textures)
     normal_maps = property(lambda self: self.compiled.normal_maps)
+    opacity = property(lambda self: self.compiled.opacity)
     smooth_normals = property(lambda self: self.compiled.smooth_normals)
     material_texels = property(lambda self: self.compiled.material_texels)
 
@@ -288,6 +290,7 @@ class Features:
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
             "MCPT_NORMAL_MAPS": b(u.normal_maps),
+            "MCPT_OPACITY": b(u.opacity),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
             "MCPT_AOV": b(o.aov),
@@ -307,7 +310,7 @@ class Features:
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
-           normal_maps: bool = False,
+           normal_maps: bool = False, opacity: bool = False,
            sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
@@ -330,7 +333,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         microfacet=has("conductor") and rough, dielectric=has("dielectric"),
         absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,
         smooth_normals=smooth_normals, fresnel_complex=has("conductor") and fresnel_complex,
-        one_sided=one_sided, normal_maps=normal_maps,
+        one_sided=one_sided, normal_maps=normal_maps, opacity=opacity,
         # what the render is asked for; what the driver limits; the switches
         bounces=bounces, sampler=sampler, clamp=clamp, variance=variance, aov=aov,
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
@@ -348,7 +351,8 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         n_triangles=world.n_triangles, n_emissive=world.lights.count, material_types=used,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
-        one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids), **{"bvh_dense": world.bvh.dense, **flags})
+        one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids),
+        opacity=mt.cut_out(ids), **{"bvh_dense": world.bvh.dense, **flags})
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

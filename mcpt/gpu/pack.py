@@ -71,9 +71,9 @@ def pack(world: World, features: Features) -> Packed:
     if features.textures and world.textures:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
-    if features.normal_maps:  # the map table always (every material is looked up; the uber-shader)
-        buffers["normal_maps"] = pack_normal_maps(world.materials.normal_map)
-        if world.tangents is not None:
+    if features.normal_maps or features.opacity:  # the map table always (every material is looked up)
+        buffers["normal_maps"] = pack_normal_maps(world.materials.normal_map, world.materials.opacity)
+        if features.normal_maps and world.tangents is not None:
             buffers["tangents"] = pack_tangents(world.tangents)
     f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
     uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),

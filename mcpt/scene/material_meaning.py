@@ -72,6 +72,7 @@ class MaterialRow:
     k: RGB = BLACK
     one_sided: bool = False
     normal_map: object = None  # the YAML NormalMap, then (texture id, scale, right_handed) (_add)
+    opacity: object = None     # the YAML opacity texture and cutoff, then (texture id, cutoff) (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -128,6 +129,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
+                       opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
                        **conductor_columns(ym))
 
 
@@ -158,7 +160,7 @@ class MaterialResolver:
     def needs_uvs(self, spec: Mesh, file_materials) -> bool:
         """Whether some material of the mesh reads a texture (read UVs)."""
         ym = self.yaml_material(spec)
-        if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map)):
+        if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity)):
             return True
         return albedo_from_file(self.yaml_material(spec)) and any(m.kd_map is not None for m in file_materials)
 
@@ -205,7 +207,8 @@ class MaterialResolver:
                              sigma_a=rgb("sigma_a"), fresnel=tuple(r.fresnel for r in rows),
                              spec=rgb("spec"), eta=rgb("eta"), k=rgb("k"),
                              one_sided=col("one_sided", bool),
-                             normal_map=tuple(r.normal_map for r in rows))
+                             normal_map=tuple(r.normal_map for r in rows),
+                             opacity=tuple(r.opacity for r in rows))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -217,6 +220,10 @@ class MaterialResolver:
                 row = replace(row, texture=t, albedo=tuple(self.textures[t].mean_linear()))
             if row.normal_map is not None:
                 row = replace(row, normal_map=self._normal_map(row.name, row.normal_map))
+            if row.opacity is not None:
+                ref, cutoff = row.opacity
+                t = self._texture_id(ref, self.scene.where("materials", row.name, "opacity"))
+                row = replace(row, opacity=(t, cutoff))
             self.rows.append(row)
         return self._index[key]
 

@@ -175,6 +175,13 @@ class Material(StrictModel):
     normal_map: Annotated[NormalMap | None, BeforeValidator(normal_map_shorthand)] = None
     """A tangent-space normal map (a file name or ``{file, scale, handedness, wrap, filter, uv}``,
     mcpt/scene/textures.py); any type."""
+    opacity: ImageTexture | CheckerboardTexture | None = None
+    """Opacity cut-out (mcpt/shading/opacity.py): a texture whose luminance is the opacity
+    (a file name, ``{file, ...}`` or a checkerboard); rays pass where it is transparent. Not on
+    an emitter."""
+    opacity_cutoff: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    """With ``opacity``: absent where opacity < cutoff (glTF MASK); None: absent with probability
+    1 - opacity (glTF BLEND, Mitsuba's mask)."""
     bump_map: Annotated[BumpMap | None, BeforeValidator(normal_map_shorthand)] = None
     """A height image (a file name or ``{file, scale, encoding, wrap}``, mcpt/scene/textures.py);
     any type; excludes ``normal_map``."""
@@ -187,7 +194,7 @@ class Material(StrictModel):
     def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
         return None if value is None else _colour_or_texture(value, info)
 
-    @field_validator("albedo_texture", mode="before")
+    @field_validator("albedo_texture", "opacity", mode="before")
     @classmethod
     def _albedo_texture(cls, value: Any, info: ValidationInfo) -> Any:
         return _texture(value, info)
@@ -203,6 +210,10 @@ class Material(StrictModel):
                 )
         if self.albedo is not None and self.albedo_texture is not None:
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
+        if self.opacity is not None and self.emission is not None and max(self.emission) > 0:
+            raise FieldError(("opacity",), "an emitter cannot be cut out (light sampling needs its area)")
+        if self.opacity_cutoff is not None and self.opacity is None:
+            raise FieldError(("opacity_cutoff",), "opacity_cutoff needs an opacity texture")
         if self.normal_map is not None and self.bump_map is not None:
             raise FieldError(("bump_map",), "give normal_map or bump_map, not both")
         if self.type == "conductor":

@@ -88,16 +88,24 @@ def pack_tangents(corner_tangents: np.ndarray) -> np.ndarray:
     return out
 
 
-def pack_normal_maps(normal_map: tuple) -> np.ndarray:
+def pack_normal_maps(normal_map: tuple, opacity: tuple | None = None) -> np.ndarray:
     """One RGBA32UI texel per material from the table's ``normal_map`` column ((texture id,
-    scale, right_handed, bump) or None)."""
+    scale, right_handed, bump) or None) and ``opacity`` column ((texture id, cutoff or None) or
+    None: mcpt/shading/opacity.py)."""
+    from .opacity import opacity_bits
+
     out = np.zeros((max(len(normal_map), 1), 4), np.uint32)
     out[:, 0] = NO_MAP
+    out[:, 3] = NO_MAP
     for i, nm in enumerate(normal_map):
         if nm is not None:
             tex, scale, right, bump = nm
             flags = (FLAG_RIGHT_HANDED if right else 0) | (FLAG_BUMP if bump else 0)
-            out[i] = (tex, flags, np.float32(scale).view(np.uint32), 0)
+            out[i, :3] = (tex, flags, np.float32(scale).view(np.uint32))
+    for i, op in enumerate(opacity or ()):
+        if op is not None:
+            out[i, 3] = op[0]
+            out[i, 1] |= np.uint32(opacity_bits(op[1]))
     return out
 
 

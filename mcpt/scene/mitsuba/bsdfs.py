@@ -15,12 +15,12 @@ import logging
 from ...shading.materials import fdr_internal
 from ...shading.metals import METALS
 from . import values as V
-from .textures import bump_map, normal_map, texture
+from .textures import bump_map, mask, normal_map, texture
 from .xmltree import Node, deref
 
 log = logging.getLogger("mcpt")
 
-SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided", "normalmap", "bumpmap")
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided", "normalmap", "bumpmap", "mask")
 
 #: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
 IOR = {"vacuum": 1.0, "helium": 1.00004, "hydrogen": 1.00013, "air": 1.000277,
@@ -150,6 +150,8 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
         return material(inner[0], ids, two_sided=True)
     if kind == "normalmap":  # a wrapper: mcpt/scene/mitsuba/textures.py
         return normal_map(bsdf, ids, lambda node: material(node, ids, two_sided))
+    if kind == "mask":
+        return mask(bsdf, ids, lambda node: material(node, ids, two_sided))
     if kind == "bumpmap":
         return bump_map(bsdf, ids, lambda node: material(node, ids, two_sided))
     if kind == "diffuse":

@@ -159,7 +159,7 @@ def relative_paths(data: dict, folder: Path) -> dict:
         if "file" in mesh:
             mesh["file"] = rel(mesh["file"])
     for mat in data.get("materials", {}).values():
-        for key in ("albedo_texture", "normal_map", "bump_map"):
+        for key in ("albedo_texture", "normal_map", "bump_map", "opacity"):
             if "file" in mat.get(key, {}):
                 mat[key]["file"] = rel(mat[key]["file"])
     return data

@@ -85,6 +85,33 @@ def normal_map(bsdf: Node, ids: dict[str, Node], nested_material) -> dict:
     return out
 
 
+def mask(bsdf: Node, ids: dict[str, Node], nested_material) -> dict:
+    """A ``mask`` BSDF: its nested BSDF's material with ``opacity`` set (stochastic: Mitsuba
+    blends with a null BSDF). ``opacity`` a bitmap, a checkerboard (Mitsuba reads opacities with
+    eval_1, whose checkerboard puts color1 where eval puts color0: the colours are swapped here)
+    or a number (a checkerboard of one colour)."""
+    props = V.properties(bsdf)
+    maps = [c for c in bsdf.children if c.tag in ("texture", "ref") and c.get("name") == "opacity"]
+    inner = [c for c in bsdf.children if c.tag in ("bsdf", "ref") and c not in maps]
+    if len(inner) != 1:
+        raise bsdf.error("a mask needs one nested BSDF")
+    if maps:
+        tex = deref(maps[0], ids)
+        if tex.tag != "texture":
+            raise maps[0].error(f"expected a texture, got <{tex.tag}>")
+        opacity = texture(tex)
+        if opacity.get("type") == "checkerboard":
+            opacity["color0"], opacity["color1"] = opacity["color1"], opacity["color0"]
+    else:
+        a = V.as_float(props["opacity"]) if "opacity" in props else 0.5
+        if not 0.0 <= a <= 1.0:
+            raise props["opacity"].error(f"opacity {a} out of [0, 1]")
+        opacity = {"type": "checkerboard", "color0": [a] * 3, "color1": [a] * 3}
+    out = nested_material(inner[0])
+    out["opacity"] = opacity
+    return out
+
+
 def bump_map(bsdf: Node, ids: dict[str, Node], nested_material) -> dict:
     """A ``bumpmap`` BSDF: its nested BSDF's material with ``bump_map`` set: one nested bitmap
     (bilinear, no ``to_uv``), ``scale`` (default 1); ``raw`` picks linear or sRGB heights."""
