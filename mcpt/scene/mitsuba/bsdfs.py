@@ -20,7 +20,8 @@ from .xmltree import Node, deref
 
 log = logging.getLogger("mcpt")
 
-SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided", "normalmap", "bumpmap", "mask")
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided",
+             "normalmap", "bumpmap", "mask")  # the last three: mcpt/scene/mitsuba/textures.py
 
 #: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
 IOR = {"vacuum": 1.0, "helium": 1.00004, "hydrogen": 1.00013, "air": 1.000277,
