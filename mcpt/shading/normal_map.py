@@ -27,12 +27,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bump_map import FLAG_BUMP  # a height map, not a normal map
 from .normals import octahedral_encode
 from .texture import TextureError
 
 NO_MAP = 0xFFFFFFFF
 FLAG_RIGHT_HANDED = 1     # B = N x T always (Mitsuba), not by the UVs' handedness (MikkTSpace)
-FLAG_BUMP = 2             # a height map (mcpt/shading/bump_map.py)
 
 
 def vertex_tangents(vertices: np.ndarray, faces: np.ndarray, uvs: np.ndarray,
