@@ -153,7 +153,8 @@ def test_metal_rough_mapping(tmp_path, caplog):
     assert default.type == "conductor" and default.albedo == (1, 1, 1) and default.roughness == 1
     text = caplog.text
     assert "materials[3] 'shiny': approximated as diffuse" in text
-    assert re.search(r"materials\[3\] 'shiny': ignored by mcpt: occlusionTexture, alphaMode MASK", text)
+    assert re.search(r"materials\[3\] 'shiny': ignored by mcpt: occlusionTexture", text)
+    assert mats["shiny"].opacity_cutoff == 0.5 and mats["shiny"].opacity.color0 == (1.0, 1.0, 1.0)
     assert [m.material for m in scene.meshes] == ["grey", "lamp", "metal", "shiny", "gltf_default"]
 
 

@@ -113,3 +113,28 @@ def test_an_emitter_cannot_be_cut_out(tmp_path):
     path.write_text(FURNACE.format(leaf="{emission: [1, 1, 1], opacity: {type: checkerboard}}", root=SCENES, spp=1))
     with pytest.raises(SceneError, match=r"opacity.*an emitter cannot be cut out"):
         load_scene(path)
+
+
+def test_gltf_mask_reads_the_base_colour_alpha_with_its_cutoff(gl, tmp_path):
+    import cv2
+
+    from mcpt.shading.texture import load_texture
+
+    from .test_gltf import small_scene
+
+    rgba = np.zeros((2, 2, 4), np.uint8)
+    rgba[..., :3] = 200
+    rgba[..., 3] = [[255, 0], [40, 255]]
+    ok, png = cv2.imencode(".png", rgba)
+    b = small_scene()
+    b.doc["images"] = [{"bufferView": b.view(png.tobytes()), "mimeType": "image/png"}]
+    b.doc["textures"] = [{"source": 0}]
+    b.doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+    b.doc["materials"][0].update(alphaMode="MASK", alphaCutoff=0.3)
+    mat = load_scene(b.write_glb(tmp_path / "t.glb")).materials["grey"]
+    assert mat.opacity_cutoff == 0.3 and mat.opacity.channel == "alpha"
+    t = load_texture(mat.opacity.file, alpha=True, linear=True)
+    np.testing.assert_array_equal(t.srgb[::-1, :, 0], rgba[..., 3])  # the alpha, rows bottom-up
+    b.doc["materials"][0]["alphaMode"] = "BLEND"
+    mat = load_scene(b.write_glb(tmp_path / "t.glb")).materials["grey"]
+    assert mat.opacity is not None and mat.opacity_cutoff is None

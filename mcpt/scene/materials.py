@@ -44,6 +44,9 @@ class ImageTexture(StrictModel):
     """Bilinear interpolation of the four nearest texels (in linear RGB), or the nearest texel."""
     uv: UvTransform | None = None
     """A transform of the UVs before the lookup (mcpt/scene/textures.py)."""
+    channel: Literal["rgb", "alpha"] = "rgb"
+    """``alpha``: the image's alpha channel (linear; 1 where it has none) as a grey texture, for
+    ``opacity`` (glTF's base colour alpha)."""
 
     @field_validator("file", mode="before")
     @classmethod

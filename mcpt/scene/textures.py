@@ -89,7 +89,7 @@ def texture_key(ref: Any) -> tuple:
         return ("bump", str(ref.file), ref.wrap, ref.encoding)
     if isinstance(ref, CheckerboardTexture):
         return ("checkerboard", ref.color0, ref.color1, affine_of(ref))
-    return (str(ref.file), ref.wrap, ref.filter, affine_of(ref))
+    return (str(ref.file), ref.wrap, ref.filter, affine_of(ref), getattr(ref, "channel", "rgb"))
 
 
 def build_texture(ref: Any):
@@ -100,7 +100,8 @@ def build_texture(ref: Any):
 
     if isinstance(ref, CheckerboardTexture):
         return Checkerboard(tuple(ref.color0), tuple(ref.color1), affine_of(ref))
-    return load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref))
+    alpha = getattr(ref, "channel", "rgb") == "alpha"
+    return load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref), linear=alpha, alpha=alpha)
 
 
 class NormalMap(StrictModel):

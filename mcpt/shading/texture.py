@@ -100,7 +100,7 @@ def apply_uv(uv_map, uv: np.ndarray) -> np.ndarray:
 
 
 def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=IDENTITY_UV,
-                 linear: bool = False) -> Texture:
+                 linear: bool = False, alpha: bool = False) -> Texture:
     import cv2  # only scenes with textures pay for the import
 
     path = Path(path)
@@ -111,7 +111,11 @@ def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=
         img = ((img.astype(np.uint32) * 255 + 32767) // 65535).astype(np.uint8)
     elif img.dtype != np.uint8:
         raise TextureError(f"{path}: {img.dtype} pixels; albedo textures must be 8- or 16-bit images")
-    if img.ndim == 2:
+    if alpha:  # the alpha channel as grey (opacity); 255 where the image has none
+        has = img.ndim == 3 and img.shape[2] in (2, 4)
+        a = img[:, :, -1] if has else np.full(img.shape[:2], 255, np.uint8)
+        img = np.repeat(a[:, :, None], 3, axis=2)
+    elif img.ndim == 2:
         img = np.repeat(img[:, :, None], 3, axis=2)
     elif img.shape[2] == 1:
         img = np.repeat(img, 3, axis=2)

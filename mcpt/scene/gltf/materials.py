@@ -13,8 +13,9 @@ What maps (README "glTF 2.0 scenes" has the full table):
   ``emissiveTexture`` scales it by the image's mean, warned); ``doubleSided`` -> ``two_sided``.
 * ``normalTexture`` (linear, tangent space, ``scale``) -> ``normal_map`` with MikkTSpace-style
   tangents from the UVs (mcpt/shading/normal_map.py); a TANGENT attribute is not read.
-* ignored with a warning: metallicRoughnessTexture, occlusionTexture, alphaMode
-  MASK / BLEND and base-colour alpha (rendered opaque), other material extensions.
+* ``alphaMode`` MASK (``alphaCutoff``) / BLEND -> ``opacity`` (+ ``opacity_cutoff`` for MASK):
+  the base colour texture's alpha channel, else the factor's alpha; not on an emitter (warned).
+* ignored with a warning: metallicRoughnessTexture, occlusionTexture, other material extensions.
 
 A primitive without a material gets the spec's default material (section 3.9.6): white,
 metallic 1, roughness 1, i.e. a rough white conductor.
@@ -58,6 +59,25 @@ def _texture_info(g: Gltf, info, where: str, key: str) -> dict:
     return out
 
 
+def _opacity(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> dict:
+    """alphaMode MASK (alphaCutoff, default 0.5) / BLEND (stochastic) -> ``opacity``: the base
+    colour texture's alpha, else the factor's alpha (a one-colour checkerboard)."""
+    mode = m.get("alphaMode", "OPAQUE")
+    if mode not in ("MASK", "BLEND"):
+        return {}
+    if "baseColorTexture" in pbr:
+        opacity = {**_texture_info(g, pbr["baseColorTexture"], where, "baseColorTexture"), "channel": "alpha"}
+        if base[3] != 1.0:
+            log.warning("%s: %s: baseColorFactor alpha %.3g times the texture's: mcpt uses the texture's "
+                        "alpha alone", g.path, where, base[3])
+    else:
+        opacity = {"type": "checkerboard", "color0": [float(base[3])] * 3, "color1": [float(base[3])] * 3}
+    out = {"opacity": opacity}
+    if mode == "MASK":
+        out["opacity_cutoff"] = min(_factor(g, m, "alphaCutoff", 0.5, where), 1.0)
+    return out
+
+
 def _normal_map(g: Gltf, info, where: str) -> dict:
     """normalTexture -> mcpt's ``normal_map`` (glTF's tangent frame: MikkTSpace, ``uv``)."""
     out = _texture_info(g, info, where, "normalTexture")
@@ -86,10 +106,8 @@ def _warn_ignored(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> 
     ignored = [k for k in IGNORED_TEXTURES if k in m or k in pbr]
     ignored += [f"extension {e}" for e in obj(m.get("extensions")) if e not in KNOWN_EXTENSIONS]
     mode = m.get("alphaMode", "OPAQUE")
-    if mode != "OPAQUE":
+    if mode not in ("OPAQUE", "MASK", "BLEND"):
         ignored.append(f"alphaMode {mode} (rendered opaque)")
-    elif base[3] < 1.0:
-        ignored.append(f"base colour alpha {base[3]:.3g} (rendered opaque)")
     if ignored:
         log.warning("%s: %s: ignored by mcpt: %s", g.path, where, ", ".join(ignored))
 
@@ -137,5 +155,11 @@ def material(g: Gltf, index: int | None) -> dict:
     emission = _emission(g, m, where)
     if emission is not None:
         out["emission"] = emission
+    cut = _opacity(g, m, pbr, base, where)
+    if cut and emission is not None and max(emission) > 0:
+        log.warning("%s: %s: alphaMode %s on an emitter is ignored (rendered opaque: light sampling "
+                    "needs its area)", g.path, where, m.get("alphaMode"))
+    else:
+        out.update(cut)
     _warn_ignored(g, m, pbr, base, where)
     return out
