@@ -138,3 +138,29 @@ def test_gltf_mask_reads_the_base_colour_alpha_with_its_cutoff(gl, tmp_path):
     b.doc["materials"][0]["alphaMode"] = "BLEND"
     mat = load_scene(b.write_glb(tmp_path / "t.glb")).materials["grey"]
     assert mat.opacity is not None and mat.opacity_cutoff is None
+
+
+def test_obj_map_d_cuts_the_mesh_out(gl, tmp_path):
+    """An OBJ quad whose MTL gives ``map_d`` (a grey 0/255 image, left half clear): the camera sees
+    the furnace through the clear half (stochastic opacity of 0 and 1: no noise from the hash)."""
+    import cv2
+
+    mask = np.zeros((64, 64), np.uint8)  # fine enough that bilinear blending stays near u = 1/2
+    mask[:, 32:] = 255
+    cv2.imwrite(str(tmp_path / "mask.png"), mask)
+    (tmp_path / "q.mtl").write_text("newmtl leaf\nKd 0.3 0.3 0.3\nmap_d mask.png\n")
+    (tmp_path / "q.obj").write_text("mtllib q.mtl\nv -1 -1 -0.5\nv 1 -1 -0.5\nv 1 1 -0.5\nv -1 1 -0.5\n"
+                                     "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl leaf\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n")
+    path = tmp_path / "f.yaml"
+    path.write_text(FURNACE.format(leaf="{albedo: [0.3, 0.3, 0.3]}", root=SCENES, spp=16).replace(
+        "{shape: rectangle, material: leaf, transform: {translate: [0, 0, -0.5]}}", f"{{file: {tmp_path / 'q.obj'}}}"))
+    from mcpt.api import prepare
+
+    p = prepare(path)
+    try:
+        img = draw(p.renderer, 16, 1).image[..., 0]
+    finally:
+        p.renderer.release()
+    assert p.features.opacity
+    left, right = img[:, :10].mean(), img[:, 14:].mean()
+    assert abs(left - 1.0) < 1e-6 and abs(right - 0.3) < 0.05, (left, right)

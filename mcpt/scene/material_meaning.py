@@ -51,6 +51,7 @@ class TextureRef:
     file: Path
     wrap: str = "repeat"
     filter: str = "bilinear"
+    linear: bool = False  # read c / 255 (an MTL map_d opacity), not sRGB-decoded
 
 
 @dataclass(frozen=True)
@@ -162,6 +163,8 @@ class MaterialResolver:
         ym = self.yaml_material(spec)
         if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity)):
             return True
+        if any(m.d_map is not None for m in file_materials) and (ym is None or ym.opacity is None):
+            return True
         return albedo_from_file(self.yaml_material(spec)) and any(m.kd_map is not None for m in file_materials)
 
     def mesh_ids(self, mi: int, spec: Mesh, file_materials) -> np.ndarray:
@@ -180,14 +183,16 @@ class MaterialResolver:
             tex, tex_where = yaml_tex if yaml_tex is not None else (
                 kd_map, f"{mesh_where}: {spec.file}: material {mm.name!r}")
             tex_key = texture_key(tex) if tex is not None else None
+            cut = self._file_opacity(mesh_where, spec, mm, ym, ke)
             if ym is None:
                 key = ("mtl", str(spec.file), mm.name)
-                ids[j] = self._add(key, file_row(mm.name, kd, ke), tex, tex_where)
+                ids[j] = self._add(key, replace(file_row(mm.name, kd, ke), opacity=cut), tex, tex_where)
                 continue
             # One row per YAML material, unless the file's colours show through it.
-            full = not from_file and ym.emission is not None
-            key = (spec.material,) if full else (spec.material, kd, ke, tex_key)
-            ids[j] = self._add(key, scene_row(spec.material, ym, kd, ke), tex, tex_where)
+            full = not from_file and ym.emission is not None and cut is None
+            key = (spec.material,) if full else (spec.material, kd, ke, tex_key, cut and texture_key(cut[0]))
+            row = scene_row(spec.material, ym, kd, ke)
+            ids[j] = self._add(key, replace(row, opacity=cut) if cut is not None else row, tex, tex_where)
         return ids
 
     def table(self) -> MaterialTable:
@@ -256,6 +261,17 @@ class MaterialResolver:
         if ym.type == "conductor" and isinstance(ym.specular_reflectance, (ImageTexture, CheckerboardTexture)):
             return ym.specular_reflectance, self.scene.where("materials", name, "specular_reflectance")
         return None
+
+    def _file_opacity(self, mesh_where: str, spec: Mesh, mm, ym, ke) -> tuple | None:
+        """A mesh file's ``map_d`` cut-out (stochastic opacity, read linearly) where the YAML gives
+        no opacity and the material does not emit (an emitter cannot be cut out: warned)."""
+        ref = self._file_texture(mesh_where, spec, mm, mm.d_map)
+        if ref is None or (ym is not None and ym.opacity is not None):
+            return None
+        if max(ke) > 0 or (ym is not None and ym.emission is not None and max(ym.emission) > 0):
+            log.warning("%s: material %r: map_d on an emitter is ignored (rendered opaque)", spec.file, mm.name)
+            return None
+        return (replace(ref, linear=True), None)
 
     @staticmethod
     def _file_texture(mesh_where: str, spec: Mesh, mm, tmap) -> TextureRef | None:

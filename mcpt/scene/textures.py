@@ -89,7 +89,8 @@ def texture_key(ref: Any) -> tuple:
         return ("bump", str(ref.file), ref.wrap, ref.encoding)
     if isinstance(ref, CheckerboardTexture):
         return ("checkerboard", ref.color0, ref.color1, affine_of(ref))
-    return (str(ref.file), ref.wrap, ref.filter, affine_of(ref), getattr(ref, "channel", "rgb"))
+    return (str(ref.file), ref.wrap, ref.filter, affine_of(ref), getattr(ref, "channel", "rgb"),
+            getattr(ref, "linear", False))
 
 
 def build_texture(ref: Any):
@@ -101,7 +102,8 @@ def build_texture(ref: Any):
     if isinstance(ref, CheckerboardTexture):
         return Checkerboard(tuple(ref.color0), tuple(ref.color1), affine_of(ref))
     alpha = getattr(ref, "channel", "rgb") == "alpha"
-    return load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref), linear=alpha, alpha=alpha)
+    linear = alpha or getattr(ref, "linear", False)
+    return load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref), linear=linear, alpha=alpha)
 
 
 class NormalMap(StrictModel):
