@@ -17,6 +17,7 @@ from .gpu.aov import AOVS
 from .gpu.aov import parse as parse_aovs
 from .prepare import Prepared, prepare
 from .render import Options, Outcome, render, run
+from .shading.camera import camera_summary
 
 __all__ = ["Options", "Outcome", "Prepared", "describe", "prepare", "render", "render_scene", "run"]
 
@@ -47,6 +48,7 @@ def describe(scene, **kwargs) -> dict:
                       "bounces": p.features.bounces, "seed": p.scene.render.seed},
             "counts": {k: v for k, v in p.world.stats.items() if k != "bvh"},
             "bvh": p.world.bvh.stats(),
+            "camera": camera_summary(cam),
             "features": {"key": dict(p.features.key), "defines": p.features.defines()},
             "buffers": {**r.setup["upload_bytes"], "random_per_pass": r.setup["random_bytes_per_pass"]},
             "gl": {**p.gl.describe(), **p.gl.limits()},

@@ -45,6 +45,7 @@ from ..shading.camera import orthonormal
 from .diagnostics import FieldError, dotted, line_of, to_scene_error
 from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent, scene_path
 from .materials import Material
+from .pixel_filter import FilterField, PixelFilter
 from .transform import Transform
 
 
@@ -65,6 +66,9 @@ class Camera(StrictModel):
     """Full vertical field of view in degrees, 0 < vfov_deg < 180."""
     resolution: Resolution
     """``[width, height]`` in pixels, each 1..MAX_RESOLUTION."""
+    filter: FilterField = PixelFilter()
+    """Pixel filter (mcpt/scene/pixel_filter.py): ``box`` (default), ``tent``, ``gaussian`` or a
+    mapping ``{type: gaussian, stddev: 0.5}``; drawn by filter importance sampling."""
 
     @property
     def width(self) -> int:

@@ -6,8 +6,9 @@
   ``tan(vfov/2) = tan(xfov/2) / aspect``. ``to_world`` gives position = M·0, view direction =
   M's third column, up = its second column (Mitsuba's camera looks along local +z with local +x
   the image's LEFT, so mcpt's right = forward x up is Mitsuba's -x: the same image).
-* ``hdrfilm`` / ``specfilm``: ``width`` / ``height`` (default 768 x 576); a pixel filter other
-  than ``box`` is approximated by mcpt's box filter with a warning.
+* ``hdrfilm`` / ``specfilm``: ``width`` / ``height`` (default 768 x 576); ``rfilter`` ``box``,
+  ``tent`` (``radius``) and ``gaussian`` (``stddev``; the default filter) -> ``camera.filter``
+  exactly (filter importance sampling: mcpt/shading/pixel_filter.py); others are refused.
 * any sampler: ``sample_count`` (default 4) -> ``spp``; ``seed`` -> ``seed``.
 * ``path`` and the integrators whose expected image is the same: ``max_depth`` (default -1) ->
   ``bounces = max_depth - 1``; -1 (unlimited) -> :data:`UNLIMITED_BOUNCES`.
@@ -20,7 +21,9 @@ import math
 
 import numpy as np
 
+from ...shading.pixel_filter import FILTERS, GAUSS_RADIUS_STDDEVS
 from ..fields import MAX_RESOLUTION
+from ..pixel_filter import MAX_RADIUS
 from . import values as V
 from .xmltree import Node
 
@@ -98,10 +101,10 @@ def camera_pose(m: np.ndarray, where: Node) -> dict:
     return {"position": pos.tolist(), "look_at": (pos + fwd).tolist(), "up": up.tolist()}
 
 
-def film(node: Node | None) -> tuple[int, int]:
-    """(width, height) of the film, with the pixel-filter warning."""
+def film(node: Node | None) -> tuple[int, int, dict]:
+    """(width, height, pixel filter) of the film."""
     if node is None:
-        return 768, 576
+        return 768, 576, pixel_filter(None)
     if node.get("type") not in SUPPORTED_FILMS:
         raise node.error(f"not supported by mcpt (supported films: {', '.join(SUPPORTED_FILMS)})")
     props = V.properties(node)
@@ -115,13 +118,28 @@ def film(node: Node | None) -> tuple[int, int]:
         if key in props:
             raise props[key].error("film crops are not supported by mcpt")
     rfilter = next((c for c in node.children if c.tag == "rfilter"), None)
-    kind = rfilter.get("type") if rfilter is not None else "gaussian"
-    if kind != "box":
-        where = rfilter or node
-        log.warning("%s:%d: %s: pixel filter %s is approximated by mcpt's box filter (each pixel "
-                    "averages its own area; a slightly sharper image, the same mean)",
-                    where.file, where.line, where.label, kind)
-    return size[0], size[1]
+    return size[0], size[1], pixel_filter(rfilter)
+
+
+def pixel_filter(node: Node | None) -> dict:
+    """mcpt's ``camera.filter`` for an ``<rfilter>`` (absent: Mitsuba's default, gaussian):
+    box, tent (``radius``, default 1) and gaussian (``stddev``, default 0.5) exactly; others refused."""
+    if node is None:
+        return {"type": "gaussian"}
+    kind = node.get("type")
+    params = {"tent": "radius", "gaussian": "stddev"}
+    if kind not in FILTERS:
+        raise node.error(f"pixel filter {kind!r} is not supported by mcpt (supported: {', '.join(FILTERS)})")
+    props = V.properties(node)
+    out: dict = {"type": kind}
+    for key, value in props.items():
+        if key != params.get(kind):
+            raise value.error(f"{key}: not a parameter of the {kind} filter")
+        out[key] = V.as_float(value)
+        support = out[key] * (GAUSS_RADIUS_STDDEVS if key == "stddev" else 1.0)
+        if not 0.0 < support <= MAX_RADIUS:
+            raise value.error(f"{key} {out[key]:g}: the filter's radius must lie in (0, {MAX_RADIUS:g}] pixels")
+    return out
 
 
 def sampler(node: Node | None) -> dict:
@@ -169,11 +187,11 @@ def sensor(node: Node, objects) -> tuple[dict, dict]:
         if key in props and V.as_float(props[key]) != 0.0:
             raise props[key].error("off-centre principal points are not supported by mcpt")
     film_node = next((c for c in objects if c.tag == "film"), None)
-    width, height = film(film_node)
+    width, height, rfilter = film(film_node)
     render = sampler(next((c for c in objects if c.tag == "sampler"), None))
     aspect = width / height
     m = V.as_transform(props["to_world"]) if "to_world" in props else np.eye(4)
     camera = {**camera_pose(m, props.get("to_world", node)),
               "vfov_deg": vfov_deg(x_fov(props, aspect, node), aspect),
-              "resolution": [width, height]}
+              "resolution": [width, height], "filter": rfilter}
     return camera, render
