@@ -35,7 +35,14 @@ def camera(**extra) -> Camera:
                                   "vfov_deg": 50.0, "resolution": (RES, RES), **extra})
 
 
-def run_camera_probe(gl, cam: Camera, mode: int, u: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+def write_scene(tmp_path, camera_lines: str, name="s.yaml"):
+    path = tmp_path / name
+    path.write_text("camera:\n  position: [0, 0, 1]\n  look_at: [0, 0, 0]\n  resolution: [8, 8]\n"
+                    + camera_lines + "meshes:\n  - {shape: sphere}\n")
+    return path
+
+
+def run_camera_probe(gl, cam: Camera, mode: int, u: np.ndarray, pixels: np.ndarray, lens=(0.5, 0.5)) -> np.ndarray:
     n = len(u)
     buf = np.zeros((n, 4), np.uint32)
     buf[:, :2] = u.astype(np.float32).view(np.uint32)
@@ -43,7 +50,8 @@ def run_camera_probe(gl, cam: Camera, mode: int, u: np.ndarray, pixels: np.ndarr
     feats = Features.of(bounces=1, **camera_uses(cam))
     return floats(run_test_probe(gl, "probe_camera.frag", buf, n, preamble=feats.preamble(),
                                  key=("probe_camera", feats.key),
-                                 uniforms={"u_mode": mode, **camera_uniforms(cam)}, width=1024))
+                                 uniforms={"u_mode": mode, "u_lens": tuple(map(float, lens)),
+                                           **camera_uniforms(cam)}, width=1024))
 
 
 def bin_probabilities(cam: Camera, edges: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -98,7 +106,7 @@ def test_filter_offsets_are_monotone_in_u(gl):
 
 def test_box_filter_compiles_nothing_and_jitters_uniformly(gl):
     cam = camera()
-    assert camera_uses(cam) == {"pixel_filter": False}
+    assert camera_uses(cam)["pixel_filter"] is False
     assert Features.of(bounces=1, **camera_uses(cam)).defines()["MCPT_FILTER"] == 0
     assert "u_filter_x" not in camera_uniforms(cam)
     from .rays import primary_rays
@@ -194,3 +202,112 @@ meshes: [{{shape: rectangle, material: lamp, transform: {{translate: [20, 0, -1]
         expected.append(dens[right].sum() / dens[inside].sum())
     np.testing.assert_allclose(got, expected, atol=0.01)
     assert 0.1 < got[w // 2 - 1] < 0.3 and 0.7 < got[w // 2] < 0.9   # the edge is blurred (box: 0, 1)
+
+
+# --- thin lens ---------------------------------------------------------------------------------
+
+LENS = {"focus_distance": 3.0, "aperture_radius": 0.2}
+
+
+def test_lens_samples_are_uniform_on_the_disk(gl):
+    """chi-square of concentric_disk (Shirley & Chiu) against the uniform disk: r^2 and phi
+    uniform, 16 x 32 equal-area cells."""
+    cam = camera(lens=LENS, filter="gaussian")
+    u = uniform_numbers(N, 2, seed=22)
+    d = run_camera_probe(gl, cam, 3, u, np.zeros((N, 2))).astype(np.float64)[:, :2]
+    r2 = (d * d).sum(axis=1)
+    assert r2.max() <= 1.0 + 1e-6
+    phi = (np.arctan2(d[:, 1], d[:, 0]) / (2 * math.pi)) % 1.0
+    observed, _, _ = np.histogram2d(np.minimum(r2, 1.0), phi, bins=(16, 32), range=((0, 1), (0, 1)))
+    p, stat, dof = chi2_test(observed, np.full(observed.shape, N / observed.size))
+    print(f"lens disk: chi2 p = {p:.3g} ({stat:.1f} / {dof} dof)")
+    assert p > 0.01, (p, stat, dof)
+
+
+def test_focus_plane_is_sharp_and_the_lens_blurs_elsewhere(gl):
+    """All lens points of one film position aim at the point the pinhole ray meets on the plane
+    focus_distance ahead; the rays spread everywhere else (by the aperture, at the lens)."""
+    cam = camera(lens=LENS)
+    pin = camera()
+    u = uniform_numbers(64, 2, seed=3)
+    pix = np.stack([np.arange(64) % RES, np.arange(64) // 4 % RES], axis=1)
+    ref = run_camera_probe(gl, pin, 1, u, pix).astype(np.float64)[:, :3]
+    f = np.array([0.0, 0.0, -1.0])
+    target = ref / (ref @ f)[:, None] * LENS["focus_distance"]
+    origins = []
+    for lens in [(0.1, 0.2), (0.9, 0.5), (0.5, 0.99), (0.3, 0.7), (0.0, 0.0)]:
+        d = run_camera_probe(gl, cam, 1, u, pix, lens).astype(np.float64)[:, :3]
+        o = run_camera_probe(gl, cam, 2, u, pix, lens).astype(np.float64)[:, :3]
+        assert np.allclose(o @ f, 0.0, atol=1e-7)                        # on the lens plane
+        assert np.all(np.linalg.norm(o, axis=1) <= LENS["aperture_radius"] * (1 + 1e-6))
+        t = (LENS["focus_distance"] - o @ f) / (d @ f)
+        np.testing.assert_allclose(o + t[:, None] * d, target, atol=2e-5)  # sharp in focus
+        origins.append(o)
+    spread = np.ptp(np.stack(origins), axis=0).max()
+    assert spread > 0.2                                                   # the aperture is used
+
+
+def test_zero_aperture_is_a_pinhole_and_the_lens_takes_two_more_dims():
+    from mcpt.shading.sampler import dims_for
+
+    assert camera_uses(camera(lens={"focus_distance": 2.0, "aperture_radius": 0.0}))["thin_lens"] is False
+    f = Features.of(bounces=3, **camera_uses(camera(lens=LENS)))
+    assert f.defines()["MCPT_THIN_LENS"] == 1 and f.random_dims == dims_for(3) + 2
+    by_ratio = camera(lens={"focus_distance": 2.0, "f_number": 2.0, "focal_length": 0.05}).lens
+    assert by_ratio.radius == pytest.approx(0.0125)
+
+
+@pytest.mark.parametrize("lens,error", [
+    ("{focus_distance: 0, aperture_radius: 0.1}", "focus_distance: Input should be greater than 0"),
+    ("{focus_distance: -2, aperture_radius: 0.1}", "focus_distance: Input should be greater than 0"),
+    ("{focus_distance: 2, aperture_radius: -0.1}", "aperture_radius: Input should be greater than or equal to 0"),
+    ("{focus_distance: 2, f_number: 2}", "focal_length: f_number and focal_length go together"),
+    ("{focus_distance: 2}", "a lens needs aperture_radius"),
+])
+def test_bad_lens_is_one_located_line(tmp_path, lens, error):
+    from mcpt.scene import SceneError, load_scene
+
+    path = write_scene(tmp_path, f"  vfov_deg: 40\n  lens: {lens}\n")
+    with pytest.raises(SceneError) as e:
+        load_scene(path)
+    msg = str(e.value)
+    assert "\n" not in msg and "s.yaml:6:" in msg and error in msg, msg
+
+
+def test_aperture_larger_than_the_scene_exits_2_writing_nothing(tmp_path):
+    from click.testing import CliRunner
+
+    from mcpt.cli.main import main
+
+    path = write_scene(tmp_path, "  vfov_deg: 40\n  lens: {focus_distance: 1, aperture_radius: 50}\n")
+    out = tmp_path / "o.exr"
+    res = CliRunner().invoke(main, ["render", str(path), "-o", str(out), "--spp", "1"])
+    assert res.exit_code == 2 and not out.exists()
+    errors = [ln for ln in res.output.splitlines() if "error" in ln]   # (and a no-emitter warning)
+    assert len(errors) == 1, res.output
+    assert "s.yaml:6: camera.lens: aperture radius 50 is larger than the whole scene" in errors[0], res.output
+
+
+def test_mitsuba_thinlens_maps_exactly(tmp_path):
+    from mcpt.scene import SceneError, load_scene
+
+    def scene(params: str, transform='<lookat origin="0, 0, 4" target="0, 0, 0"/>'):
+        p = tmp_path / "t.xml"
+        p.write_text(f'''<scene version="3.0.0"><sensor type="thinlens">
+            {params}<transform name="to_world">{transform}</transform>
+            <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+            </sensor><shape type="sphere"/></scene>''')
+        return p
+
+    cam = load_scene(scene('<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="3"/>')).camera
+    assert (cam.lens.radius, cam.lens.focus_distance, cam.filter.type) == (0.1, 3.0, "gaussian")
+    assert load_scene(scene('<float name="aperture_radius" value="0.1"/>')).camera.lens.focus_distance == 1e4
+    for params, transform, words in (
+            ("", None, "a thinlens sensor needs aperture_radius"),
+            ('<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="0"/>', None,
+             "focus_distance 0 must be > 0"),
+            ('<float name="aperture_radius" value="0.1"/>', '<scale value="2"/>', "has a scale")):
+        with pytest.raises(SceneError) as e:
+            load_scene(scene(params, *([transform] if transform else [])))
+        msg = str(e.value)
+        assert "\n" not in msg and "t.xml:" in msg and words in msg, msg

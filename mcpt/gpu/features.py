@@ -89,6 +89,8 @@ class Uses:
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
     pixel_filter: bool = False      # tent / Gaussian filter importance sampling (mcpt/shading/camera.py)
+    thin_lens: bool = False         # depth of field: a point on the lens per sample (2 more dims)
+    orthographic: bool = False      # parallel camera rays
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
@@ -235,7 +237,7 @@ class Features:
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return dims_for(self.bounces)
+        return dims_for(self.bounces, self.compiled.thin_lens)
 
     @property
     def continues(self) -> bool:
@@ -288,6 +290,8 @@ class Features:
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
             "MCPT_FILTER": b(u.pixel_filter),
+            "MCPT_THIN_LENS": b(u.thin_lens),
+            "MCPT_ORTHO": b(u.orthographic),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
             "MCPT_AOV": b(o.aov),
