@@ -299,7 +299,8 @@ def test_mitsuba_thinlens_maps_exactly(tmp_path):
             </sensor><shape type="sphere"/></scene>''')
         return p
 
-    cam = load_scene(scene('<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="3"/>')).camera
+    both = '<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="3"/>'
+    cam = load_scene(scene(both)).camera
     assert (cam.lens.radius, cam.lens.focus_distance, cam.filter.type) == (0.1, 3.0, "gaussian")
     assert load_scene(scene('<float name="aperture_radius" value="0.1"/>')).camera.lens.focus_distance == 1e4
     for params, transform, words in (
@@ -311,3 +312,73 @@ def test_mitsuba_thinlens_maps_exactly(tmp_path):
             load_scene(scene(params, *([transform] if transform else [])))
         msg = str(e.value)
         assert "\n" not in msg and "t.xml:" in msg and words in msg, msg
+
+
+# --- orthographic ------------------------------------------------------------------------------
+
+def test_orthographic_rays_are_parallel_over_the_view(gl):
+    """Origins on the plane through the camera, spanning ortho_height x (height * aspect), every
+    direction the view direction; pixel (i, j) from the left and the top as for the pinhole."""
+    cam = Camera.model_validate({"position": (1.0, 2.0, 3.0), "look_at": (1.0, 2.0, 0.0),
+                                 "projection": "orthographic", "ortho_height": 2.5, "resolution": (20, 10)})
+    assert camera_uses(cam)["orthographic"] and not camera_uses(cam)["thin_lens"]
+    pix = np.array([[0, 0], [19, 9], [10, 5], [3, 7]])
+    u = np.array([[0.0, 0.0], [1.0, 1.0], [0.0, 0.0], [0.5, 0.5]], np.float32)
+    o = run_camera_probe(gl, cam, 2, u, pix).astype(np.float64)[:, :3]
+    d = run_camera_probe(gl, cam, 1, u, pix).astype(np.float64)[:, :3]
+    np.testing.assert_allclose(d, np.tile([0.0, 0.0, -1.0], (4, 1)), atol=1e-7)
+    # camera-relative origins: right = +x, up = +y; width 2.5 * 2 = 5
+    expected = [[-2.5, 1.25, 0], [2.5, -1.25, 0], [0, 0, 0], [-2.5 + 3.5 * 0.25, 1.25 - 7.5 * 0.25, 0]]
+    np.testing.assert_allclose(o, expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("lines,error", [
+    ("  projection: orthographic\n", "camera.ortho_height: required key is missing"),
+    ("  projection: orthographic\n  ortho_height: 2\n  vfov_deg: 30\n",
+     "camera.vfov_deg: vfov_deg is for a perspective"),
+    ("  projection: orthographic\n  ortho_height: -1\n", "camera.ortho_height: Input should be greater than 0"),
+    ("  vfov_deg: 30\n  ortho_height: 2\n", "camera.ortho_height: ortho_height is for projection: orthographic"),
+    ("  resolution_: 1\n", "unknown key"),
+])
+def test_bad_orthographic_is_one_located_line(tmp_path, lines, error):
+    from mcpt.scene import SceneError, load_scene
+
+    with pytest.raises(SceneError) as e:
+        load_scene(write_scene(tmp_path, lines))
+    msg = str(e.value)
+    assert "\n" not in msg and "s.yaml:" in msg and error in msg, msg
+
+
+def test_mitsuba_orthographic_and_gltf_orthographic_map_exactly(tmp_path):
+    from mcpt.scene import SceneError, load_scene
+    from mcpt.scene.gltf import GltfError
+
+    from .gltf_files import QUAD, QUAD_FACES, GltfBuilder
+
+    def xml(scale: str):
+        p = tmp_path / "o.xml"
+        p.write_text(f'''<scene version="3.0.0"><sensor type="orthographic"><transform name="to_world">
+            {scale}<lookat origin="0, 0, 4" target="0, 0, 0"/></transform>
+            <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/></film>
+            </sensor><shape type="sphere"/></scene>''')
+        return p
+
+    cam = load_scene(xml('<scale x="3" y="3" z="7"/>')).camera
+    assert cam.projection == "orthographic" and cam.ortho_height == pytest.approx(3.0)  # 2 * 3 / aspect 2
+    assert cam.position == (0, 0, 4) and np.allclose(np.subtract(cam.look_at, cam.position), [0, 0, -1])
+    assert load_scene(xml("")).camera.ortho_height == pytest.approx(1.0)
+    with pytest.raises(SceneError, match=r"o.xml:1: <transform name=\"to_world\">: to_world scales x and y "
+                                         r"differently \(3, 2\)"):
+        load_scene(xml('<scale x="3" y="2"/>'))
+
+    b = GltfBuilder()
+    b.node(mesh=b.mesh(QUAD, QUAD_FACES))
+    b.doc.setdefault("cameras", []).append({"type": "orthographic", "orthographic":
+                                            {"xmag": 3.0, "ymag": 1.5, "znear": 0.01, "zfar": 100}})
+    b.node(translation=[0, 0, 5], camera=0)
+    cam = load_scene(b.write_gltf(tmp_path / "o.gltf")).camera
+    assert (cam.projection, cam.ortho_height, cam.resolution) == ("orthographic", 3.0, (1024, 512))
+    assert cam.position == (0, 0, 5)
+    b.doc["cameras"][0]["orthographic"]["ymag"] = 0
+    with pytest.raises(GltfError, match=r"bad.gltf: cameras\[0\]: orthographic.ymag 0 is not a positive number"):
+        load_scene(b.write_gltf(tmp_path / "bad.gltf"))
