@@ -3,6 +3,7 @@
 filter compiled out), and the YAML / Mitsuba XML mapping of the filter."""
 
 import math
+from pathlib import Path
 import zlib
 
 import numpy as np
@@ -382,3 +383,45 @@ def test_mitsuba_orthographic_and_gltf_orthographic_map_exactly(tmp_path):
     b.doc["cameras"][0]["orthographic"]["ymag"] = 0
     with pytest.raises(GltfError, match=r"bad.gltf: cameras\[0\]: orthographic.ymag 0 is not a positive number"):
         load_scene(b.write_gltf(tmp_path / "bad.gltf"))
+
+
+# --- fov_axis ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("axis", ["x", "y", "diagonal", "smaller", "larger"])
+def test_yaml_fov_axis_is_mitsubas(axis):
+    """fov_deg along fov_axis gives the vertical fov that the Mitsuba reader derives from the same
+    fov and fov_axis (tests/test_mitsuba.py holds that one against Mitsuba's own parse_fov)."""
+    from mcpt.scene.mitsuba.camera import vfov_deg, x_fov
+    from mcpt.scene.mitsuba.xmltree import Node
+
+    for w, h in ((32, 16), (16, 32)):
+        cam = camera(fov_deg=40.0, fov_axis=axis, vfov_deg=None, resolution=(w, h))
+        props = {"fov": Node("float", {"name": "fov", "value": "40"}, Path("t.xml"), 1),
+                 "fov_axis": Node("string", {"name": "fov_axis", "value": axis}, Path("t.xml"), 1)}
+        expected = vfov_deg(x_fov(props, w / h, Node("sensor", {}, Path("t.xml"), 1)), w / h)
+        assert cam.vfov_deg == pytest.approx(expected, rel=1e-12)
+    assert camera(fov_deg=40.0, vfov_deg=None).vfov_deg == pytest.approx(40.0)  # square: any axis
+
+
+def test_fov_axis_follows_a_new_resolution(tmp_path):
+    from mcpt.scene import load_scene
+
+    scene = load_scene(write_scene(tmp_path, "  fov_deg: 60\n  fov_axis: x\n"))
+    wide = scene.with_overrides(resolution=(16, 8)).camera
+    assert wide.vfov_deg == pytest.approx(2 * math.degrees(math.atan(math.tan(math.radians(30)) / 2)))
+    assert wide.fov_deg == 60 and scene.camera.vfov_deg == pytest.approx(60)
+
+
+@pytest.mark.parametrize("lines,error", [
+    ("  fov_deg: 60\n  vfov_deg: 60\n", "camera.fov_deg: give vfov_deg or fov_deg"),
+    ("  vfov_deg: 60\n  fov_axis: y\n", "camera.fov_axis: fov_axis goes with fov_deg"),
+    ("  fov_deg: 60\n  fov_axis: z\n", "camera.fov_axis: Input should be"),
+    ("  fov_deg: 180\n", "camera.fov_deg: Input should be less than 180"),
+])
+def test_bad_fov_is_one_located_line(tmp_path, lines, error):
+    from mcpt.scene import SceneError, load_scene
+
+    with pytest.raises(SceneError) as e:
+        load_scene(write_scene(tmp_path, lines))
+    msg = str(e.value)
+    assert "\n" not in msg and "s.yaml:" in msg and error in msg, msg

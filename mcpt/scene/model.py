@@ -41,7 +41,7 @@ from pydantic import (
     model_validator,
 )
 
-from ..shading.camera import orthonormal
+from ..shading.camera import orthonormal, vertical_fov
 from .diagnostics import FieldError, dotted, line_of, to_scene_error
 from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent, scene_path
 from .lens import Lens
@@ -65,7 +65,11 @@ class Camera(StrictModel):
     up: Vec3 = (0.0, 1.0, 0.0)
     """Up hint, world units (any length); must not be parallel to the view direction."""
     vfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
-    """Full vertical field of view in degrees, 0 < vfov_deg < 180 (perspective: required)."""
+    """Full vertical field of view in degrees, 0 < vfov_deg < 180 (perspective: this or ``fov_deg``)."""
+    fov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
+    """Full field of view in degrees along ``fov_axis``, instead of ``vfov_deg`` (which it sets)."""
+    fov_axis: Literal["x", "y", "diagonal", "smaller", "larger"] | None = None
+    """The axis ``fov_deg`` spans, as Mitsuba's ``fov_axis`` (default ``x``, Mitsuba's)."""
     projection: Literal["perspective", "orthographic"] = "perspective"
     """``orthographic``: parallel rays along the view direction over ``ortho_height``."""
     ortho_height: Annotated[float, Field(gt=0.0)] | None = None
@@ -108,7 +112,14 @@ class Camera(StrictModel):
         return self._check_projection()
 
     def _check_projection(self) -> Camera:
+        if self.fov_axis is not None and self.fov_deg is None:
+            raise FieldError(("fov_axis",), "fov_axis goes with fov_deg")
         if self.projection == "perspective":
+            if self.fov_deg is not None:
+                if self.vfov_deg is not None:
+                    raise FieldError(("fov_deg",), "give vfov_deg or fov_deg (with fov_axis), not both")
+                vfov = vertical_fov(self.fov_deg, self.fov_axis or "x", self.width / self.height)
+                object.__setattr__(self, "vfov_deg", vfov)  # frozen: set once, here
             if self.vfov_deg is None:
                 raise FieldError(("vfov_deg",), "required key is missing (a perspective camera's field of view)")
             if self.ortho_height is not None:
@@ -116,7 +127,7 @@ class Camera(StrictModel):
             return self
         if self.ortho_height is None:
             raise FieldError(("ortho_height",), "required key is missing (an orthographic camera's view height)")
-        for key in ("vfov_deg", "lens"):
+        for key in ("vfov_deg", "fov_deg", "lens"):
             if getattr(self, key) is not None:
                 raise FieldError((key,), f"{key} is for a perspective camera, not an orthographic one")
         return self
@@ -260,6 +271,8 @@ class Scene(StrictModel):
             if value is not None:
                 render[key] = value
         camera = self.camera.model_dump()
+        if camera["fov_deg"] is not None:
+            camera["vfov_deg"] = None  # derived from fov_deg and the (new) aspect again
         if resolution is not None:
             camera["resolution"] = resolution
         data = {

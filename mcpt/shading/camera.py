@@ -51,6 +51,18 @@ def basis(position, look_at, up, vfov_deg: float, width: int, height: int):
     return f, r * (t * width / height), u * t
 
 
+def vertical_fov(fov_deg: float, axis: str, aspect: float) -> float:
+    """The vertical field of view (degrees) of a field of view ``fov_deg`` measured along ``axis``
+    (Mitsuba's ``fov_axis``: x, y, diagonal, smaller, larger) of an image ``aspect = W / H``
+    wide: tan(v/2) = tan(fov/2) / (aspect, 1, sqrt(1 + aspect^2)) by the axis's length."""
+    if axis == "smaller":
+        axis = "y" if aspect > 1 else "x"
+    elif axis == "larger":
+        axis = "x" if aspect > 1 else "y"
+    length = {"x": aspect, "y": 1.0, "diagonal": math.hypot(1.0, aspect)}[axis]
+    return 2.0 * math.degrees(math.atan(math.tan(math.radians(fov_deg) / 2.0) / length))
+
+
 def camera_uses(cam) -> dict:
     """The ``Uses`` fields (mcpt/gpu/features.py) of a scene's camera."""
     return {"pixel_filter": cam.filter.type != "box", "thin_lens": thin_lens(cam),
