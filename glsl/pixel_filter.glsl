@@ -1,72 +1,92 @@
-// Pixel filter by importance sampling (host: mcpt/shading/pixel_filter.py, which derives the
-// table and says why): the camera sample's offset from its pixel's centre, drawn per axis from the
-// filter's piecewise-linear density (exact for the tent, 3e-4 of the Gaussian's integral), truncated
-// to the film as Mitsuba's film keeps only samples on it. Compiled only with MCPT_FILTER (not box).
-#define FILTER_KNOTS 129
-uniform float u_filter_x[FILTER_KNOTS];    // knots, pixels, ascending over [-radius, radius]
-uniform float u_filter_pdf[FILTER_KNOTS];  // normalised density at each knot (1 / pixel)
-uniform float u_filter_cdf[FILTER_KNOTS];  // integral up to each knot; unused entries 2.0
-uniform int u_filter_last;                 // index of the last knot
+// Pixel filter by importance sampling (host: mcpt/shading/pixel_filter.py, which says why): the
+// camera sample's offset from its pixel's centre, drawn per axis by the filter's inverse CDF, cut
+// to the film as Mitsuba's film keeps only samples on it. MCPT_FILTER 1 tent, 2 Gaussian (0, the
+// box, compiles none of this). No table search: closed forms, and Newton's method for the Gaussian.
+uniform float u_filter_radius;   // pixels
+// CDF at the film's first edge seen from the k-th pixel column (row) from it, i.e. at offset
+// -(k + 0.5), for the u_filter_edges columns within the radius; by symmetry 1 - the CDF at the
+// last edge. Computed on the host.
+#define FILTER_EDGES 16
+uniform float u_filter_edge[FILTER_EDGES];
+uniform int u_filter_edges;
 
-// The segment [x_i, x_i+1] whose CDF range holds c: the largest i < last with cdf[i] <= c.
-// Written out (seven fixed steps over 128 segments): a loop would spend llvmpipe's loop budget
-// (glsl/common.glsl LOOP_TICK) without being counted.
-#define FILTER_STEP(table, v, s) if (i + s < u_filter_last && table[i + s] <= v) i += s
-int filter_segment_cdf(float c) {
-    int i = 0;
-    FILTER_STEP(u_filter_cdf, c, 64);
-    FILTER_STEP(u_filter_cdf, c, 32);
-    FILTER_STEP(u_filter_cdf, c, 16);
-    FILTER_STEP(u_filter_cdf, c, 8);
-    FILTER_STEP(u_filter_cdf, c, 4);
-    FILTER_STEP(u_filter_cdf, c, 2);
-    FILTER_STEP(u_filter_cdf, c, 1);
-    return i;
+#if MCPT_FILTER == 2
+uniform float u_gauss_s;         // stddev * sqrt(2), pixels
+uniform float u_gauss_bias;      // exp(-r^2 / (2 stddev^2)): Mitsuba lowers the Gaussian by it
+uniform float u_gauss_erfc_r;    // erfc(r / s)
+uniform float u_gauss_norm;      // the filter's integral over [-r, r]
+
+// erfc(z) for z >= 0, fractional error < 1.2e-7 everywhere (Numerical Recipes' erfcc, after
+// Chebyshev fitting): relative precision in the tails, where the CDF is small.
+float gauss_erfc(float z) {
+    float t = 1.0 / (1.0 + 0.5 * z);
+    float p = -1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418 + t * (-0.18628806
+              + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277))))))));
+    return t * exp(-z * z + p);
 }
 
-// The largest i < last with x_i <= v.
-int filter_segment_x(float v) {
-    int i = 0;
-    FILTER_STEP(u_filter_x, v, 64);
-    FILTER_STEP(u_filter_x, v, 32);
-    FILTER_STEP(u_filter_x, v, 16);
-    FILTER_STEP(u_filter_x, v, 8);
-    FILTER_STEP(u_filter_x, v, 4);
-    FILTER_STEP(u_filter_x, v, 2);
-    FILTER_STEP(u_filter_x, v, 1);
-    return i;
+// erfinv(1 - y) for y in (0, 1] without forming 1 - y (M. Giles 2010, "Approximating the erfinv
+// function", GPU Computing Gems, single-precision version; w = -log((1 - x)(1 + x)) = -log(y (2 - y))).
+float gauss_erfcinv(float y) {
+    float w = -log(y * (2.0 - y)), p;
+    if (w < 5.0) {
+        w -= 2.5;
+        p = 2.81022636e-08;
+        p = 3.43273939e-07 + p * w; p = -3.5233877e-06 + p * w; p = -4.39150654e-06 + p * w;
+        p = 0.00021858087 + p * w; p = -0.00125372503 + p * w; p = -0.00417768164 + p * w;
+        p = 0.246640727 + p * w; p = 1.50140941 + p * w;
+    } else {
+        w = sqrt(w) - 3.0;
+        p = -0.000200214257;
+        p = 0.000100950558 + p * w; p = 0.00134934322 + p * w; p = -0.00367342844 + p * w;
+        p = 0.00573950773 + p * w; p = -0.0076224613 + p * w; p = 0.00943887047 + p * w;
+        p = 1.00167406 + p * w; p = 2.83297682 + p * w;
+    }
+    return p * (1.0 - y);
 }
 
-// CDF at offset v (pixels): the segment's start plus the trapezoid up to v.
-float filter_cdf(float v) {
-    v = clamp(v, u_filter_x[0], u_filter_x[u_filter_last]);
-    int i = filter_segment_x(v);
-    float h = u_filter_x[i + 1] - u_filter_x[i], s = v - u_filter_x[i];
-    return u_filter_cdf[i] + s * (u_filter_pdf[i] + 0.5 * (u_filter_pdf[i + 1] - u_filter_pdf[i]) * s / h);
+// One Newton step toward G(x) = target on [-r, 0] (G below).
+float gauss_newton(float x, float target) {
+    float s = u_gauss_s, r = u_filter_radius;
+    float g = 0.5 * s * sqrt(PI) * (gauss_erfc(-x / s) - u_gauss_erfc_r) - u_gauss_bias * (x + r);
+    float f = max(exp(-(x * x) / (s * s)) - u_gauss_bias, 1e-30);
+    return clamp(x - (g - target) / f, -r, 0.0);
 }
 
-// Offset (pixels) of CDF value c: in its segment the density is p + k s, whose integral p s + k s^2 / 2
-// = d is solved in the cancellation-free form s = 2 d / (p + sqrt(p^2 + 2 k d)).
+// Offset with CDF c of Mitsuba's Gaussian max(0, exp(-x^2/s^2) - bias) on [-r, r]. Its integral from
+// -r to x <= 0 is G(x) = s sqrt(pi)/2 (erfc(|x|/s) - erfc(r/s)) - bias (x + r); the lower half is
+// solved (c > 1/2 by symmetry, keeping the precision of small CDFs): the plain Gaussian's inverse
+// as the start, then Newton steps on G (CDF error < 3e-7 where c > 1e-3, < 1e-5 beyond).
 float filter_invert(float c) {
-    int i = filter_segment_cdf(c);
-    float h = u_filter_x[i + 1] - u_filter_x[i];
-    float p = u_filter_pdf[i], k = (u_filter_pdf[i + 1] - p) / h, d = max(c - u_filter_cdf[i], 0.0);
-    float s = 2.0 * d / max(p + sqrt(max(p * p + 2.0 * k * d, 0.0)), 1e-30);
-    return u_filter_x[i] + clamp(s, 0.0, h);
+    bool upper = c > 0.5;
+    float target = (upper ? 1.0 - c : c) * u_gauss_norm;
+    float s = u_gauss_s, r = u_filter_radius;
+    float x = clamp(-s * gauss_erfcinv(target / (0.5 * s * sqrt(PI)) + u_gauss_erfc_r), -r, 0.0);
+    // At x, G(x) = target - bias (x + r) up to erfcinv's error: a Newton step on the bias alone
+    // needs no erfc; then one full step.
+    x = clamp(x + u_gauss_bias * (x + r) / max(exp(-(x * x) / (s * s)) - u_gauss_bias, 1e-30), -r, 0.0);
+    x = gauss_newton(x, target);
+    return upper ? -x : x;
 }
+#else
+// The tent's inverse CDF: (x + r)^2 / (2 r^2) below 0, 1 - (r - x)^2 / (2 r^2) above.
+float filter_invert(float c) {
+    float r = u_filter_radius;
+    return c < 0.5 ? r * (sqrt(2.0 * c) - 1.0) : r * (1.0 - sqrt(2.0 - 2.0 * c));
+}
+#endif
 
-// Offset for u in [0, 1) restricted to [lo, hi] (what keeps the sample on the film); a pixel
-// farther than the radius from the edge skips the two CDF look-ups.
-float filter_offset(float u, float lo, float hi) {
-    float c0 = lo > u_filter_x[0] ? filter_cdf(lo) : 0.0;
-    float c1 = hi < u_filter_x[u_filter_last] ? filter_cdf(hi) : 1.0;
+// Offset for u in [0, 1) restricted to the film, for the pixel `from_first` columns (or rows)
+// from its first edge and `from_last` from its last: u maps into [CDF(lo), CDF(hi)].
+float filter_offset(float u, int from_first, int from_last) {
+    float c0 = from_first < u_filter_edges ? u_filter_edge[min(from_first, FILTER_EDGES - 1)] : 0.0;
+    float c1 = from_last < u_filter_edges ? 1.0 - u_filter_edge[min(from_last, FILTER_EDGES - 1)] : 1.0;
     return filter_invert(c0 + u * (c1 - c0));
 }
 
 // The sample's position inside pixel `pixel` (pixels, 0.5 = the centre; may leave [0, 1) by up
 // to the radius) for the camera's two random numbers u, on a film of `res` pixels.
 vec2 filter_jitter(ivec2 pixel, vec2 u, ivec2 res) {
-    vec2 c = vec2(pixel) + 0.5;
-    return 0.5 + vec2(filter_offset(u.x, -c.x, float(res.x) - c.x),
-                      filter_offset(u.y, -c.y, float(res.y) - c.y));
+    ivec2 far = res - 1 - pixel;
+    return 0.5 + vec2(filter_offset(u.x, pixel.x, far.x), filter_offset(u.y, pixel.y, far.y));
 }

@@ -88,7 +88,7 @@ class Uses:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
-    pixel_filter: bool = False      # tent / Gaussian filter importance sampling (mcpt/shading/camera.py)
+    pixel_filter: int = 0           # 0 box, 1 tent, 2 Gaussian: filter importance sampling (pixel_filter.py)
     thin_lens: bool = False         # depth of field: a point on the lens per sample (2 more dims)
     orthographic: bool = False      # parallel camera rays
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
@@ -289,7 +289,7 @@ class Features:
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
-            "MCPT_FILTER": b(u.pixel_filter),
+            "MCPT_FILTER": u.pixel_filter,
             "MCPT_THIN_LENS": b(u.thin_lens),
             "MCPT_ORTHO": b(u.orthographic),
             "MCPT_CLAMP": b(o.clamp),

@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from ..errors import McptError
-from .pixel_filter import table
+from .pixel_filter import FILTER_IDS, uniforms
 
 #: An aperture radius above this many times the scene's size is refused (a typo, not a lens:
 #: everything would be a blur of the whole scene).
@@ -65,7 +65,7 @@ def vertical_fov(fov_deg: float, axis: str, aspect: float) -> float:
 
 def camera_uses(cam) -> dict:
     """The ``Uses`` fields (mcpt/gpu/features.py) of a scene's camera."""
-    return {"pixel_filter": cam.filter.type != "box", "thin_lens": thin_lens(cam),
+    return {"pixel_filter": FILTER_IDS[cam.filter.type], "thin_lens": thin_lens(cam),
             "orthographic": cam.projection == "orthographic"}
 
 
@@ -89,7 +89,7 @@ def camera_uniforms(cam) -> dict:
         out.update(u_lens_right=tuple(ru * cam.lens.radius), u_lens_up=tuple(uu * cam.lens.radius),
                    u_focus_distance=float(cam.lens.focus_distance))
     if cam.filter.type != "box":
-        out.update(table(cam.filter.type, cam.filter.std, cam.filter.tent_radius))
+        out.update(uniforms(cam.filter.type, cam.filter.std, cam.filter.tent_radius))
     return out
 
 
