@@ -55,7 +55,12 @@ layout(location = 2) out vec4 o_aov_b;
 bool path_step(inout Path P) {
     Hit h;
     Ray ray = P.ray;
-    if (!trace_closest(ray, h)) return false;
+    if (!trace_closest(ray, h)) {
+#if MCPT_LIGHT_ENV
+        env_escaped(P, ray.d);  // environment.glsl
+#endif
+        return false;
+    }
     int k = P.k;
     Material m = material(tri_material(h.tri));
     vec3 n = normalize(tri_normal_raw(h.tri));

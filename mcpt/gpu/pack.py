@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..shading.camera import basis
+from ..shading.environment import env_uniforms
 from ..shading.lights import material_light_pdf_area
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
@@ -37,7 +38,7 @@ from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-         "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
 
 
 @dataclass(frozen=True)
@@ -72,6 +73,8 @@ def pack(world: World, features: Features) -> Packed:
     f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
     uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
                 "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
-                "u_light_count": world.lights.count}
+                "u_light_count": world.lights.entries}
+    if features.compiled.environment:
+        uniforms.update(env_uniforms(world.scene.environment, world.lights.env_pmf if features.nee else 0.0))
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))
     return Packed(cam.width, cam.height, buffers, uniforms, per_item)
