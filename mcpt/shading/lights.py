@@ -98,3 +98,16 @@ def light_uses(lights: Lights) -> dict:
     return {"lights": lights.entries > 0, "single_light": lights.entries == 1, "area_lights": "area" in k,
             "point_lights": "point" in k, "spot_lights": "spot" in k,
             "directional_lights": "directional" in k, "environment": "environment" in k}
+
+
+def describe_lights(lights: Lights, scene) -> dict:
+    """What ``mcpt info`` lists: every light with its parameters and selection probability."""
+    out = {"entries": lights.entries, "area (emissive triangles)": lights.count}
+    if lights.count:
+        out["area pick probability"] = round(float(lights.pmf[:lights.count].sum()), 6)
+    for i, (spec, p) in enumerate(zip(scene.lights, lights.punctual)):
+        keys = {k: v for k, v in spec.model_dump().items() if v is not None and k != "type"}
+        out[f"{spec.type} {i}"] = f"{keys}, pick probability {float(lights.pmf[lights.count + i]):.6g}"
+    if lights.env_power > 0:
+        out["environment"] = f"{scene.environment.model_dump()}, pick probability {lights.env_pmf:.6g}"
+    return out

@@ -1,0 +1,155 @@
+"""Point, spot and directional lights (issue #20): closed forms through the real path tracer,
+the light table, and what bad input gets."""
+
+import math
+
+import numpy as np
+import pytest
+
+from mcpt.gpu.features import for_world
+from mcpt.scene import SceneError, parse_scene
+from mcpt.shading.camera import basis
+from mcpt.shading.light_punctual import spot_falloff
+from mcpt.shapes.world import load_world
+
+from .conftest import ROOT
+from .draw import render as draw
+from .test_materials_util import renderer
+
+RHO = 0.5
+PLANE = f"""
+camera: {{position: [0, 0, 3], look_at: [0, 0, 0], vfov_deg: 30, resolution: [16, 16]}}
+render: {{bounces: {{b}}}}
+materials:
+  grey: {{albedo: [{RHO}, {RHO}, {RHO}]}}
+meshes:
+  - file: models/quad.obj
+    material: grey
+    transform: {{scale: 6}}
+lights:
+"""
+
+
+def scene(lights: str, bounces: int = 1):
+    return parse_scene(PLANE.replace("{b}", str(bounces)) + lights, ROOT / "scenes" / "inline.yaml")
+
+
+def render(gl, sc, spp=64, seed=3, **flags):
+    world = load_world(sc)
+    feats = for_world(world, variance=True, **flags)
+    r = renderer(gl, world, feats)
+    try:
+        return draw(r, spp, seed), feats
+    finally:
+        r.release()
+
+
+def film_points(sc, n=256):
+    """Where a dense grid of camera rays over the whole film meets the plane z = 0."""
+    cam = sc.camera
+    f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
+    s = (np.arange(n) + 0.5) / n * 2 - 1
+    sx, sy = np.meshgrid(s, s)
+    d = f + sx[..., None] * r + sy[..., None] * u
+    o = np.asarray(cam.position, np.float64)
+    t = -o[2] / d[..., 2]
+    return o + t[..., None] * d
+
+
+def test_directional_light_on_a_plane_is_rho_over_pi_e_cos(gl):
+    """A diffuse plane under a sun of irradiance E: L = rho / pi * E * cos(theta), every pixel."""
+    d = np.array([0.0, -0.5, -1.0])
+    res, feats = render(gl, scene("  - {type: directional, direction: [0, -0.5, -1], irradiance: [2, 1, 0.5]}"), 16)
+    assert feats.defines()["MCPT_LIGHT_DIRECTIONAL"] == 1 and feats.defines()["MCPT_LIGHT_POINT"] == 0
+    cos = -d[2] / np.linalg.norm(d)
+    want = RHO / math.pi * np.array([2, 1, 0.5]) * cos
+    np.testing.assert_allclose(res.image.reshape(-1, 3), np.broadcast_to(want, (256, 3)), rtol=2e-5)
+
+
+def test_point_light_on_a_plane_is_rho_over_pi_i_cos_over_r2(gl):
+    """A diffuse plane under a point light of intensity I at height h: L = rho / pi * I cos / r^2
+    with cos = h / r; the image mean is that averaged over the film."""
+    light = np.array([0.3, 0.2, 1.0])
+    res, feats = render(gl, scene("  - {type: point, position: [0.3, 0.2, 1.0], intensity: [3, 3, 3]}"), 64)
+    assert feats.defines()["MCPT_LIGHT_POINT"] == 1 and feats.defines()["MCPT_LIGHT_AREA"] == 0
+    p = film_points(scene("  - {type: point, position: [0.3, 0.2, 1.0], intensity: [3, 3, 3]}"))
+    v = light - p
+    r2 = (v * v).sum(-1)
+    want = RHO / math.pi * 3.0 * (v[..., 2] / np.sqrt(r2)) / r2
+    assert res.image.mean() == pytest.approx(want.mean(), rel=2e-3)
+
+
+def test_spot_light_on_a_plane_follows_mitsubas_profile(gl):
+    """A spot aimed straight down: rho / pi * I falloff(theta) cos / r^2 (falloff: linear in angle
+    from the beam to the cutoff, Mitsuba 3's spot.cpp), averaged over the film."""
+    sc = scene("  - {type: spot, position: [0, 0, 1.5], look_at: [0, 0, 0], intensity: [4, 4, 4], "
+               "cutoff_deg: 30, beam_deg: 10}")
+    res, feats = render(gl, sc, 64)
+    assert feats.defines()["MCPT_LIGHT_SPOT"] == 1
+    v = np.array([0, 0, 1.5]) - film_points(sc)
+    r = np.linalg.norm(v, axis=-1)
+    cos = v[..., 2] / r
+    want = RHO / math.pi * 4.0 * spot_falloff(cos, math.radians(30), math.radians(10)) * cos / r**2
+    assert res.image.mean() == pytest.approx(want.mean(), rel=3e-3)
+
+
+def test_spot_falloff_is_mitsubas():
+    """Values read off Mitsuba 3.9.1's spot (cutoff 30, beam 10): 1 to the beam, 0.5 at 20
+    degrees, 0.05 at 29, 0 past the cutoff."""
+    ang = np.radians([0, 10, 12, 20, 29, 31])
+    got = spot_falloff(np.cos(ang), math.radians(30), math.radians(10))
+    np.testing.assert_allclose(got, [1, 1, 0.9, 0.5, 0.05, 0], atol=1e-5)
+
+
+def test_lights_and_area_lights_share_one_selection(gl):
+    """A point light beside an emissive quad: the picture is the sum of the two lit alone (within
+    noise; the quad stays in the scene, dark, when it is off), and the pmf is power-proportional
+    over both kinds."""
+    lamp = """
+  - file: models/quad.obj
+    material: lamp
+    transform: {translate: [0, 0, 1.5], rotate_deg: [180, 0, 0], scale: 0.5}
+lights:
+"""
+    point = "  - {type: point, position: [0.5, 0, 1.0], intensity: [1, 1, 1]}\n"
+
+    def sc(emission, lights):
+        text = PLANE.replace("{b}", "2").replace("lights:\n", lamp).replace(
+            "materials:\n", f"materials:\n  lamp: {{albedo: [0, 0, 0], emission: {emission}}}\n")
+        return parse_scene(text + lights, ROOT / "scenes" / "inline.yaml")
+
+    both = sc("[4, 4, 4]", point)
+    world = load_world(both)
+    assert world.lights.entries == 3 and world.lights.count == 2
+    # powers: the quad luminance(Le) x area = 4 x 0.25, the point light 4 I (flux / pi)
+    np.testing.assert_allclose(world.lights.pmf[2] / world.lights.pmf[:2].sum(), 4.0 / (4 * 0.25), rtol=1e-6)
+    spp = 256
+    r_both, _ = render(gl, both, spp, 5)
+    r_lamp, _ = render(gl, sc("[4, 4, 4]", ""), spp, 6)
+    r_point, _ = render(gl, sc("[0, 0, 0]", point), spp, 7)
+    n = r_both.image.size
+    se = math.sqrt(sum(float(r.variance.mean()) for r in (r_both, r_lamp, r_point)) / n)
+    z = (r_both.image.mean() - r_lamp.image.mean() - r_point.image.mean()) / se
+    assert abs(z) < 4, z
+
+
+BAD = [
+    ("  - {type: point, position: [0, 0, 1], intensity: [0, 0, 0]}", "lights.0.intensity", "zero"),
+    ("  - {type: point, position: [0, 0, 1], intensity: [-1, 1, 1]}", "lights.0.intensity", "greater than or equal"),
+    ("  - {type: spot, position: [0, 0, 1], look_at: [0, 0, 0], intensity: [1, 1, 1], cutoff_deg: 10, beam_deg: 20}",
+     "lights.0.beam_deg", "exceeds cutoff_deg"),
+    ("  - {type: lamp, position: [0, 0, 1]}", "lights.0.type", "point"),
+    ("  - {type: point, position: [0, 0, 1], intensity: [1, 1, 1], colour: 2}", "lights.0.colour", "unknown key"),
+    ("  - {type: directional, direction: [0, 0, 1], intensity: [1, 1, 1]}", "lights.0.intensity", "has no intensity"),
+    ("  - {type: directional, irradiance: [1, 1, 1]}", "lights.0.direction", "needs direction"),
+    ("  - {type: spot, position: [0, 0, 1], intensity: [1, 1, 1]}", "lights.0.look_at", "look_at or direction"),
+]
+
+
+@pytest.mark.parametrize(("light", "key", "why"), BAD)
+def test_bad_lights_get_one_located_line(light, key, why):
+    text = PLANE.replace("{b}", "1") + light
+    with pytest.raises(SceneError) as e:
+        parse_scene(text, ROOT / "scenes" / "inline.yaml")
+    msg = str(e.value)
+    assert "\n" not in msg and f"inline.yaml:{text.count(chr(10)) + 1}: {key}" in msg and why in msg, msg
