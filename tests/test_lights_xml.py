@@ -1,0 +1,55 @@
+"""Mitsuba 3 emitters -> mcpt lights (issue #20, mcpt/scene/mitsuba/emitters.py)."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from mcpt.scene import SceneError, load_scene
+
+from .test_mitsuba import write_xml
+
+SPHERE = '<shape type="sphere"/>'
+
+
+def test_point_spot_directional_constant_are_mapped(tmp_path):
+    path = write_xml(tmp_path, SPHERE + """
+<emitter type="point"><point name="position" x="1" y="2" z="3"/><rgb name="intensity" value="1, 2, 3"/></emitter>
+<emitter type="point"><transform name="to_world"><translate x="4"/></transform></emitter>
+<emitter type="spot">
+  <transform name="to_world"><lookat origin="0, 5, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+  <float name="cutoff_angle" value="30"/>
+</emitter>
+<emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/><rgb name="irradiance" value="5, 5, 5"/></emitter>
+<emitter type="directional"><transform name="to_world"><rotate x="1" angle="90"/></transform></emitter>
+<emitter type="constant"><rgb name="radiance" value="0.5, 0.6, 0.7"/></emitter>
+""")
+    s = load_scene(path)
+    p0, p1, spot, d0, d1 = s.lights
+    assert (p0.position, p0.intensity) == ((1, 2, 3), (1, 2, 3))
+    assert p1.position == (4, 0, 0) and p1.intensity == (1, 1, 1)  # Mitsuba's default intensity 1
+    assert spot.position == (0, 5, 0) and spot.cutoff == 30 and spot.beam == pytest.approx(22.5)
+    np.testing.assert_allclose(spot.axis, [0, -1, 0], atol=1e-12)  # local +z, look_at's forward
+    np.testing.assert_allclose(d0.axis, [0, -1, 0])
+    assert d0.irradiance == (5, 5, 5)
+    np.testing.assert_allclose(d1.axis, [0, -1, 0], atol=1e-12)  # +z turned 90 degrees about x
+    assert s.environment.radiance == (0.5, 0.6, 0.7)
+    assert math.isclose(d1.irradiance[0], 1.0)
+
+
+@pytest.mark.parametrize(("body", "pattern"), [
+    ('<emitter type="projector"/>', r'<emitter type="projector">: not supported by mcpt'),
+    ('<emitter type="point"><float name="scale" value="2"/></emitter>', r"'scale' is not a parameter"),
+    ('<emitter type="spot"><float name="cutoff_angle" value="10"/><float name="beam_width" value="20"/>'
+     '</emitter>', r"beam_deg 20 exceeds cutoff_deg 10"),
+    ('<emitter type="point"><rgb name="intensity" value="0, 0, 0"/></emitter>', r"intensity is zero"),
+])
+def test_bad_emitters_are_one_located_line(tmp_path, body, pattern):
+    path = write_xml(tmp_path, SPHERE + body)
+    with pytest.raises(SceneError) as err:
+        load_scene(path)
+    msg = str(err.value)
+    assert "\n" not in msg and str(path) in msg and re.search(pattern, msg), msg
