@@ -53,3 +53,47 @@ def test_bad_emitters_are_one_located_line(tmp_path, body, pattern):
         load_scene(path)
     msg = str(err.value)
     assert "\n" not in msg and str(path) in msg and re.search(pattern, msg), msg
+
+
+# --- glTF KHR_lights_punctual ------------------------------------------------------------------
+
+def test_gltf_punctual_lights_are_placed_by_their_node_in_radiometric_units(tmp_path):
+    from .test_gltf import small_scene
+
+    b = small_scene()
+    b.doc["extensionsRequired"] = ["KHR_lights_punctual"]
+    b.doc["extensions"] = {"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1, 0.5, 0.25], "intensity": 683},
+        {"type": "spot", "intensity": 1366, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+        {"type": "directional", "intensity": 6830}]}}
+    b.node(translation=[1, 2, 3], extensions={"KHR_lights_punctual": {"light": 0}})
+    # rotated +90 degrees about x: local -Z becomes world +Y
+    q = [math.sin(math.pi / 4), 0, 0, math.cos(math.pi / 4)]
+    b.node(translation=[0, -1, 0], rotation=q, extensions={"KHR_lights_punctual": {"light": 1}})
+    b.node(extensions={"KHR_lights_punctual": {"light": 2}})
+    s = load_scene(b.write_gltf(tmp_path / "l.gltf"))
+    point, spot, sun = s.lights
+    assert point.position == pytest.approx((1, 2, 3)) and point.intensity == pytest.approx((1, 0.5, 0.25))
+    assert spot.intensity == pytest.approx((2, 2, 2)) and spot.position == pytest.approx((0, -1, 0))
+    np.testing.assert_allclose(spot.axis, [0, 1, 0], atol=1e-12)
+    assert spot.cutoff == pytest.approx(math.degrees(0.5)) and spot.beam == pytest.approx(math.degrees(0.2))
+    np.testing.assert_allclose(sun.axis, [0, 0, -1])
+    assert sun.irradiance == pytest.approx((10, 10, 10))
+
+
+@pytest.mark.parametrize(("light", "pattern"), [
+    ({"type": "area"}, r"lights\[0\]: type 'area': expected point, spot or directional"),
+    ({"type": "point", "intensity": -1}, r"intensity must be a number in \[0, inf\]"),
+    ({"type": "spot", "spot": {"outerConeAngle": 0.2, "innerConeAngle": 0.3}}, r"innerConeAngle must be"),
+    ({"type": "point", "intensity": 0}, r"intensity is zero"),
+])
+def test_bad_gltf_lights_are_one_line(tmp_path, light, pattern):
+    from .test_gltf import small_scene
+
+    b = small_scene()
+    b.doc["extensions"] = {"KHR_lights_punctual": {"lights": [light]}}
+    b.node(extensions={"KHR_lights_punctual": {"light": 0}})
+    with pytest.raises(SceneError) as err:
+        load_scene(b.write_gltf(tmp_path / "l.gltf"))
+    msg = str(err.value)
+    assert "\n" not in msg and "l.gltf" in msg and re.search(pattern, msg), msg
