@@ -16,8 +16,8 @@ from pathlib import Path
 from .gpu.aov import AOVS
 from .gpu.aov import parse as parse_aovs
 from .prepare import Prepared, prepare
-from .shading.lights import describe_lights
 from .render import Options, Outcome, render, run
+from .shading.lights import describe_lights
 
 __all__ = ["Options", "Outcome", "Prepared", "describe", "prepare", "render", "render_scene", "run"]
 

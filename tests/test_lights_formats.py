@@ -23,7 +23,9 @@ def test_point_spot_directional_constant_are_mapped(tmp_path):
   <transform name="to_world"><lookat origin="0, 5, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
   <float name="cutoff_angle" value="30"/>
 </emitter>
-<emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/><rgb name="irradiance" value="5, 5, 5"/></emitter>
+<emitter type="directional">
+  <vector name="direction" x="0" y="-2" z="0"/><rgb name="irradiance" value="5, 5, 5"/>
+</emitter>
 <emitter type="directional"><transform name="to_world"><rotate x="1" angle="90"/></transform></emitter>
 <emitter type="constant"><rgb name="radiance" value="0.5, 0.6, 0.7"/></emitter>
 """)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .light_punctual import KIND_OF, PUNCTUAL_TEXELS, Punctual
+from .light_punctual import KIND_OF, PUNCTUAL_TEXELS
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 / sRGB primaries
 KIND_AREA, KIND_ENV = 0, 4  # entry kinds (glsl/lights.glsl LIGHT_*); punctual: light_punctual.KIND_OF
@@ -81,7 +81,8 @@ def build_lights(areas: np.ndarray, tri_emission: np.ndarray, punctual: tuple = 
     allp = np.concatenate(powers)
     total = float(allp.sum())
     pmf = allp / total if total > 0 else np.zeros(0)
-    kinds = {p.kind for p in punctual} | ({"area"} if idx.size else set()) | ({"environment"} if env_power > 0 else set())
+    kinds = {p.kind for p in punctual} | ({"area"} if idx.size else set())
+    kinds |= {"environment"} if env_power > 0 else set()
     return Lights(idx.astype(np.int64), pmf, total, tuple(punctual), float(env_power), frozenset(kinds))
 
 
@@ -105,7 +106,7 @@ def describe_lights(lights: Lights, scene) -> dict:
     out = {"entries": lights.entries, "area (emissive triangles)": lights.count}
     if lights.count:
         out["area pick probability"] = round(float(lights.pmf[:lights.count].sum()), 6)
-    for i, (spec, p) in enumerate(zip(scene.lights, lights.punctual)):
+    for i, spec in enumerate(scene.lights):
         keys = {k: v for k, v in spec.model_dump().items() if v is not None and k != "type"}
         out[f"{spec.type} {i}"] = f"{keys}, pick probability {float(lights.pmf[lights.count + i]):.6g}"
     if lights.env_power > 0:

@@ -28,8 +28,8 @@ from ..mapped import validated
 from ..model import Scene
 from . import camera as cameras
 from . import geometry, nodes
+from .container import Gltf, GltfError, open_gltf
 from .lights import lights
-from .container import Gltf, GltfError, obj, open_gltf
 from .materials import material, material_name
 
 log = logging.getLogger("mcpt")
