@@ -18,12 +18,23 @@ float spot_falloff(float cos_theta, vec4 s) {
 }
 #endif
 
-// The punctual light of entry e (picked with probability pmf) seen from xo.
-void punctual_sample(inout LightSample ls, uvec4 e, float pmf, vec3 xo) {
+// The punctual light of entry e (picked with probability pmf) seen from xo; u: a sun disk's sample.
+void punctual_sample(inout LightSample ls, uvec4 e, float pmf, vec3 xo, vec2 u) {
     int at = int(e.x);
-    vec3 value = light_texel(at + 1).rgb;  // intensity W/sr, or irradiance W/m^2
+    vec3 value = light_texel(at + 1).rgb;  // intensity W/sr, irradiance W/m^2, or sun radiance
     ls.delta = true;
     ls.pdf = pmf;
+#if MCPT_LIGHT_SUN
+    if (e.w == LIGHT_SUN) {  // a direction in the disk's cone (glsl/light_sun.glsl)
+        vec4 cone = light_texel(at + 3);  // cos half-angle, 1 / solid angle
+        ls.wi = sample_cone(u, -light_texel(at + 2).xyz, cone.x);
+        ls.dist = INF;
+        ls.L = value;
+        ls.pdf = pmf * cone.y;
+        ls.delta = false;
+        return;
+    }
+#endif
 #if MCPT_LIGHT_DIRECTIONAL
     if (e.w == LIGHT_DIRECTIONAL) {
         ls.wi = -light_texel(at + 2).xyz;  // towards the sun

@@ -6,7 +6,8 @@
 //
 // Light types (issue #20), each compiled only when the scene has one: emissive triangles (area
 // lights, MCPT_LIGHT_AREA), point / spot / directional lights (glsl/light_punctual.glsl: delta
-// lights, found by NEE alone, weight 1) and the environment (glsl/environment.glsl, MCPT_LIGHT_ENV).
+// lights, found by NEE alone, weight 1; a sun disk, glsl/light_sun.glsl, is not) and the environment
+// (glsl/environment.glsl, MCPT_LIGHT_ENV).
 // All are entries of ONE table u_lights, picked with probability proportional to power. A new light
 // type is one new file pair plus one line in each dispatch marked below.
 #include "path_state.glsl"
@@ -20,6 +21,7 @@
 #define LIGHT_SPOT 2u
 #define LIGHT_DIRECTIONAL 3u
 #define LIGHT_ENV 4u
+#define LIGHT_SUN 5u
 
 // Power heuristic with beta = 2 (Veach 1997, sec. 9.2.4).
 float power_heuristic(float a, float b) {
@@ -99,17 +101,32 @@ uvec4 light_pick(float u, out float pmf) {
 #if MCPT_NEE && MCPT_LIGHT_AREA
 #include "light_area.glsl"
 #endif
-#if MCPT_NEE && (MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL)
+#if MCPT_LIGHT_SUN
+#include "light_sun.glsl"
+#endif
+#if MCPT_NEE && (MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL || MCPT_LIGHT_SUN)
 #include "light_punctual.glsl"
 #endif
 #if MCPT_LIGHT_ENV
 #include "environment.glsl"
 #endif
 
+#if MCPT_LIGHT_ENV || MCPT_LIGHT_SUN
+// Dispatch (lights that rays leaving the scene find): P's ray, direction d, hit nothing.
+void light_escaped(inout Path P, vec3 d) {
+#if MCPT_LIGHT_ENV
+    env_escaped(P, d);
+#endif
+#if MCPT_LIGHT_SUN
+    sun_escaped(P, d);
+#endif
+}
+#endif
+
 #if MCPT_NEE
 // The sample is on an emissive triangle (constant true where area lights are the only kind).
 bool light_is_area(LightSample ls) {
-#if MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL || MCPT_LIGHT_ENV
+#if MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL || MCPT_LIGHT_SUN || MCPT_LIGHT_ENV
     return ls.tri >= 0;
 #else
     return true;
@@ -123,8 +140,11 @@ LightSample light_sample(vec3 xo, int dim) {
     LightSample ls;
     ls.tri = -1;
     ls.delta = false;
-#if MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL
-    if (e.w != LIGHT_AREA && e.w != LIGHT_ENV) { punctual_sample(ls, e, pmf, xo); return ls; }
+#if MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL || MCPT_LIGHT_SUN
+    if (e.w != LIGHT_AREA && e.w != LIGHT_ENV) {
+        punctual_sample(ls, e, pmf, xo, rand2_at(dim + DIM_LIGHT_UV));
+        return ls;
+    }
 #endif
 #if MCPT_LIGHT_ENV
     if (e.w == LIGHT_ENV) { env_light_sample(ls, pmf, rand2_at(dim + DIM_LIGHT_UV)); return ls; }

@@ -56,8 +56,8 @@ bool path_step(inout Path P) {
     Hit h;
     Ray ray = P.ray;
     if (!trace_closest(ray, h)) {
-#if MCPT_LIGHT_ENV
-        env_escaped(P, ray.d);  // environment.glsl
+#if MCPT_LIGHT_ENV || MCPT_LIGHT_SUN
+        light_escaped(P, ray.d);  // lights.glsl
 #endif
         return false;
     }

@@ -153,3 +153,16 @@ def test_bad_lights_get_one_located_line(light, key, why):
         parse_scene(text, ROOT / "scenes" / "inline.yaml")
     msg = str(e.value)
     assert "\n" not in msg and f"inline.yaml:{text.count(chr(10)) + 1}: {key}" in msg and why in msg, msg
+
+
+@pytest.mark.parametrize("sampling", ["mis", "nee", "bsdf"])
+def test_sun_disk_on_a_plane_gives_the_same_irradiance(gl, sampling):
+    """A sun disk of radiance E / (pi sin^2 alpha) fully above the plane's horizon gives the plane
+    irradiance pi L sin^2(alpha) cos(theta) = E cos(theta): the delta sun's picture, within noise,
+    by light sampling, by BSDF sampling (rays escaping into the disk) and by both."""
+    sc = scene("  - {type: directional, direction: [0, -0.5, -1], irradiance: [2, 2, 2], angular_diameter_deg: 20}")
+    res, feats = render(gl, sc, 256, 9, sampling=sampling)
+    assert feats.defines()["MCPT_LIGHT_SUN"] == 1 and feats.defines()["MCPT_LIGHT_DIRECTIONAL"] == 0
+    want = RHO / math.pi * 2.0 / math.sqrt(1.25)
+    se = math.sqrt(float(res.variance.mean()) / res.image.size) + 1e-6 * want
+    assert abs(res.image.mean() - want) / se < 4, (res.image.mean(), want, se)

@@ -81,6 +81,7 @@ class Uses:
     point_lights: bool = False
     spot_lights: bool = False
     directional_lights: bool = False
+    sun_lights: bool = False        # a directional light with a disk (not delta: escaping rays see it)
     environment: bool = False       # a constant environment
     bvh: bool = True                # False: brute-force loop over all triangles
     bvh_dense: bool = False         # wide-leaf traversal for heavily overlapping trees (bvh.py BVH.dense)
@@ -104,8 +105,8 @@ class Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
         return dataclasses.replace(
             self, lights=True, single_light=False, area_lights=True, point_lights=True, spot_lights=True,
-            directional_lights=True, environment=True, bvh=True, diffuse=True, conductor=True, microfacet=True,
-            dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
+            directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
+            microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True)
 
     @property
@@ -277,6 +278,7 @@ class Features:
             "MCPT_LIGHT_POINT": b(u.point_lights),
             "MCPT_LIGHT_SPOT": b(u.spot_lights),
             "MCPT_LIGHT_DIRECTIONAL": b(u.directional_lights),
+            "MCPT_LIGHT_SUN": b(u.sun_lights),
             "MCPT_LIGHT_ENV": b(u.environment),
             "MCPT_RR": b(self.rr),
             "MCPT_RR_START": RR_START,

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..shading.camera import basis
 from ..shading.environment import env_uniforms
+from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
@@ -74,6 +75,8 @@ def pack(world: World, features: Features) -> Packed:
     uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
                 "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
                 "u_light_count": world.lights.entries}
+    if features.compiled.sun_lights:
+        uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
     if features.compiled.environment:
         uniforms.update(env_uniforms(world.scene.environment, world.lights.env_pmf if features.nee else 0.0))
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))

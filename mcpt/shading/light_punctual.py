@@ -7,7 +7,11 @@ Each takes PUNCTUAL_TEXELS texels (float32 bits) after the light table's entries
     0: position (camera-relative, world units), 0
     1: intensity (W sr^-1) or, directional, irradiance (W m^-2), RGB; 0
     2: unit axis: the direction the light travels (spot axis, sun direction); 0
-    3: spot: cos(cutoff), cos(beam), cutoff (rad), 1 / (cutoff - beam) (rad^-1; 0 if equal)
+    3: spot: cos(cutoff), cos(beam), cutoff (rad), 1 / (cutoff - beam) (rad^-1; 0 if equal);
+       sun disk: cos(half-angle), 1 / its solid angle (sr^-1), 0, 0
+
+A directional light with an angular diameter (kind "sun", mcpt/shading/light_sun.py) is not a
+delta light: texel 1 holds its radiance E / (pi sin^2 alpha), alpha the half-angle.
 
 Powers for the selection distribution are flux / pi (the area lights' unit): a point light
 4 I, a spot 2 (1 - cos theta_m) I with theta_m halfway between beam and cutoff (the cone it
@@ -23,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 PUNCTUAL_TEXELS = 4
-KIND_OF = {"point": 1, "spot": 2, "directional": 3}  # glsl/lights.glsl LIGHT_*
+KIND_OF = {"point": 1, "spot": 2, "directional": 3, "sun": 5}  # glsl/lights.glsl LIGHT_*
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -36,6 +40,12 @@ class Punctual:
     cutoff: float = 0.0       # spot cutoff half-angle, rad
     beam: float = 0.0         # spot beam half-angle, rad
     power: float = 0.0        # flux / pi, for light selection
+    half_angle: float = 0.0   # sun disk: its angular radius, rad
+
+    @property
+    def solid_angle(self) -> float:
+        """Sun disk: the solid angle it covers, sr (2 pi (1 - cos alpha), written stably)."""
+        return 4.0 * math.pi * math.sin(0.5 * self.half_angle) ** 2
 
     def texels(self) -> np.ndarray:
         t = np.zeros((PUNCTUAL_TEXELS, 4), np.float32)
@@ -43,6 +53,8 @@ class Punctual:
         if self.kind == "spot":
             w = self.cutoff - self.beam
             t[3] = (math.cos(self.cutoff), math.cos(self.beam), self.cutoff, 1.0 / w if w > 0 else 0.0)
+        if self.kind == "sun":
+            t[3, :2] = (math.cos(self.half_angle), 1.0 / self.solid_angle)
         return t
 
 
@@ -72,5 +84,10 @@ def punctual_lights(specs, origin: np.ndarray, radius: float) -> tuple:
             power = 2.0 * (1.0 - math.cos(0.5 * (cutoff + beam))) * lum
         else:
             power = lum * max(radius, 1e-6) ** 2
+        half = math.radians(0.5 * (s.angular_diameter_deg or 0.0))
+        if half > 0.0:  # a sun disk: its radiance gives irradiance E facing it (pi L sin^2 alpha)
+            out.append(Punctual("sun", pos, value / (math.pi * math.sin(half) ** 2), axis, power=power,
+                                half_angle=half))
+            continue
         out.append(Punctual(s.type, pos, value, axis, cutoff, beam, power))
     return tuple(out)

@@ -98,7 +98,7 @@ def light_uses(lights: Lights) -> dict:
     k = lights.kinds
     return {"lights": lights.entries > 0, "single_light": lights.entries == 1, "area_lights": "area" in k,
             "point_lights": "point" in k, "spot_lights": "spot" in k,
-            "directional_lights": "directional" in k, "environment": "environment" in k}
+            "directional_lights": "directional" in k, "sun_lights": "sun" in k, "environment": "environment" in k}
 
 
 def describe_lights(lights: Lights, scene) -> dict:
