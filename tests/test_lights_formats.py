@@ -99,3 +99,21 @@ def test_bad_gltf_lights_are_one_line(tmp_path, light, pattern):
         load_scene(b.write_gltf(tmp_path / "l.gltf"))
     msg = str(err.value)
     assert "\n" not in msg and "l.gltf" in msg and re.search(pattern, msg), msg
+
+
+def test_envmap_is_mapped_with_its_file_scale_and_rotation(tmp_path):
+    from .test_environment import write_exr
+
+    write_exr(tmp_path / "sky.exr", np.ones((4, 8, 3), np.float32))
+    path = write_xml(tmp_path, SPHERE + """
+<emitter type="envmap">
+  <string name="filename" value="sky.exr"/><float name="scale" value="2.5"/>
+  <transform name="to_world"><rotate y="1" angle="90"/></transform>
+</emitter>""")
+    env = load_scene(path).environment
+    assert env.file == tmp_path / "sky.exr" and env.scale == 2.5 and env.radiance is None
+    np.testing.assert_allclose(env.transform.matrix()[:3, :3] @ [1, 0, 0], [0, 0, -1], atol=1e-12)
+    bad = write_xml(tmp_path, SPHERE + '<emitter type="envmap"><string name="filename" value="no.exr"/></emitter>',
+                    name="bad.xml")
+    with pytest.raises(SceneError, match=r"environment map not found"):
+        load_scene(bad)

@@ -82,7 +82,8 @@ class Uses:
     spot_lights: bool = False
     directional_lights: bool = False
     sun_lights: bool = False        # a directional light with a disk (not delta: escaping rays see it)
-    environment: bool = False       # a constant environment
+    environment: bool = False       # an environment (constant, or a map:)
+    envmap: bool = False            # an environment map (glsl/envmap.glsl, TBO units 10-11)
     bvh: bool = True                # False: brute-force loop over all triangles
     bvh_dense: bool = False         # wide-leaf traversal for heavily overlapping trees (bvh.py BVH.dense)
     diffuse: bool = True            # Lambertian material present
@@ -280,6 +281,7 @@ class Features:
             "MCPT_LIGHT_DIRECTIONAL": b(u.directional_lights),
             "MCPT_LIGHT_SUN": b(u.sun_lights),
             "MCPT_LIGHT_ENV": b(u.environment),
+            "MCPT_ENVMAP": b(u.environment and u.envmap),
             "MCPT_RR": b(self.rr),
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(u.bvh),

@@ -78,6 +78,9 @@ def pack(world: World, features: Features) -> Packed:
     if features.compiled.sun_lights:
         uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
     if features.compiled.environment:
-        uniforms.update(env_uniforms(world.scene.environment, world.lights.env_pmf if features.nee else 0.0))
+        uniforms.update(env_uniforms(world.scene.environment, world.lights.envmap,
+                                     world.lights.env_pmf if features.nee else 0.0))
+    if features.compiled.envmap and world.lights.envmap is not None:
+        buffers.update(world.lights.envmap.pack())
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))
     return Packed(cam.width, cam.height, buffers, uniforms, per_item)

@@ -34,6 +34,7 @@ class Lights:
     punctual: tuple = ()    # Punctual lights, after the area entries
     env_power: float = 0.0  # > 0: the environment is the last entry
     kinds: frozenset = field(default=frozenset())  # light types present: "area", "point", ...
+    envmap: object = None   # the environment's EnvMap (mcpt/shading/envmap.py), None: constant or none
 
     @property
     def count(self) -> int:
@@ -70,9 +71,9 @@ class Lights:
 
 
 def build_lights(areas: np.ndarray, tri_emission: np.ndarray, punctual: tuple = (),
-                 env_power: float = 0.0) -> Lights:
+                 env_power: float = 0.0, envmap=None) -> Lights:
     """Lights from per-triangle areas (F,) and emitted radiance (F, 3) (triangles in BVH order),
-    the punctual lights and the environment's power (0: none)."""
+    the punctual lights, the environment's power (0: none) and its map (None: constant)."""
     power = (tri_emission @ LUMINANCE) * areas
     idx = np.nonzero(power > 0.0)[0]
     powers = [power[idx], np.array([p.power for p in punctual], np.float64)]
@@ -83,7 +84,7 @@ def build_lights(areas: np.ndarray, tri_emission: np.ndarray, punctual: tuple = 
     pmf = allp / total if total > 0 else np.zeros(0)
     kinds = {p.kind for p in punctual} | ({"area"} if idx.size else set())
     kinds |= {"environment"} if env_power > 0 else set()
-    return Lights(idx.astype(np.int64), pmf, total, tuple(punctual), float(env_power), frozenset(kinds))
+    return Lights(idx.astype(np.int64), pmf, total, tuple(punctual), float(env_power), frozenset(kinds), envmap)
 
 
 def material_light_pdf_area(emission: np.ndarray, total_power: float) -> np.ndarray:
@@ -98,7 +99,8 @@ def light_uses(lights: Lights) -> dict:
     k = lights.kinds
     return {"lights": lights.entries > 0, "single_light": lights.entries == 1, "area_lights": "area" in k,
             "point_lights": "point" in k, "spot_lights": "spot" in k,
-            "directional_lights": "directional" in k, "sun_lights": "sun" in k, "environment": "environment" in k}
+            "directional_lights": "directional" in k, "sun_lights": "sun" in k, "environment": "environment" in k,
+            "envmap": lights.envmap is not None}
 
 
 def describe_lights(lights: Lights, scene) -> dict:
@@ -110,5 +112,8 @@ def describe_lights(lights: Lights, scene) -> dict:
         keys = {k: v for k, v in spec.model_dump().items() if v is not None and k != "type"}
         out[f"{spec.type} {i}"] = f"{keys}, pick probability {float(lights.pmf[lights.count + i]):.6g}"
     if lights.env_power > 0:
-        out["environment"] = f"{scene.environment.model_dump()}, pick probability {lights.env_pmf:.6g}"
+        env = {k: str(v) if k == "file" else v for k, v in scene.environment.model_dump(exclude_defaults=True).items()}
+        if lights.envmap is not None:
+            env["texels"] = f"{lights.envmap.width} x {lights.envmap.height}"
+        out["environment"] = f"{env}, pick probability {lights.env_pmf:.6g}"
     return out

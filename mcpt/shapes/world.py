@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import McptError
 from ..scene import Scene
 from ..scene.material_meaning import MaterialResolver
-from ..shading.environment import env_power
+from ..shading.environment import env_power, load_environment
 from ..shading.light_punctual import punctual_lights
 from ..shading.lights import Lights, build_lights
 from ..shading.materials import MaterialTable
@@ -113,8 +113,9 @@ def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
     lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
     radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
     origin = np.asarray(scene.camera.position, np.float64)
+    envmap = load_environment(scene.environment, scene.where("environment", "file"))
     return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
-                        env_power(scene.environment, radius))
+                        env_power(scene.environment, envmap, radius), envmap)
 
 
 def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:

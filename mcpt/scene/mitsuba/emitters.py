@@ -6,6 +6,8 @@ the YAML side: mcpt/scene/lights.py).
   ``cutoff_angle`` (default 20 degrees), ``beam_width`` (default 3/4 of the cutoff).
 * ``directional``: ``direction`` (or ``to_world``'s local +z), ``irradiance`` (default 1).
 * ``constant``: ``radiance`` (default 1).
+* ``envmap``: ``filename`` (relative to the XML file), ``scale`` (default 1), ``to_world``
+  (a rotation); the map's orientation is Mitsuba's (mcpt/shading/envmap.py).
 
 Parameters not listed are refused with their line (a texture as intensity, a medium).
 """
@@ -20,7 +22,8 @@ from .xmltree import Node
 _KEYS = {"point": ("position", "intensity", "to_world"),
          "spot": ("intensity", "cutoff_angle", "beam_width", "to_world"),
          "directional": ("direction", "irradiance", "to_world"),
-         "constant": ("radiance",)}
+         "constant": ("radiance",),
+         "envmap": ("filename", "scale", "to_world")}
 
 
 def emitter(node: Node) -> tuple[str, dict]:
@@ -40,6 +43,15 @@ def emitter(node: Node) -> tuple[str, dict]:
     colour = lambda name: list(V.as_color(props[name])) if name in props else [1.0, 1.0, 1.0]  # noqa: E731
     if kind == "constant":
         return "environment", {"radiance": colour("radiance")}
+    if kind == "envmap":
+        if "filename" not in props:
+            raise node.error('missing <string name="filename">')
+        env = {"file": str((node.file.parent / V.as_string(props["filename"])).resolve())}
+        if "scale" in props:
+            env["scale"] = V.as_float(props["scale"])
+        if "to_world" in props:
+            env["transform"] = {"matrix": m.tolist()}
+        return "environment", env
     if kind == "directional":
         d = V.as_point(props["direction"]) if "direction" in props else m[:3, :3] @ [0.0, 0.0, 1.0]
         return "lights", {"type": "directional", "direction": [float(x) for x in d], "irradiance": colour("irradiance")}
