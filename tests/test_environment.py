@@ -14,10 +14,10 @@ from .test_lights import render
 RHO, SKY = np.array([0.5, 0.7, 0.3]), np.array([1.0, 2.0, 3.0])
 
 
-def sky_scene(env: str = "{radiance: [1, 2, 3]}"):
+def sky_scene(env: str = "{radiance: [1, 2, 3]}", render: str = "{bounces: 4}"):
     text = f"""
 camera: {{position: [0, 0, 4], look_at: [0, 0, 0], vfov_deg: 40, resolution: [24, 24]}}
-render: {{bounces: 4}}
+render: {render}
 materials:
   m: {{albedo: [0.5, 0.7, 0.3]}}
 meshes:
@@ -124,3 +124,24 @@ def test_bad_maps_are_one_located_line(tmp_path):
     assert "\n" not in msg and re.match(r".*inline.yaml:9: environment.file: .*nan.exr", msg), msg
     with pytest.raises(SceneError, match=r"environment.scale: scale is for an environment map"):
         sky_scene("{radiance: [1, 1, 1], scale: 2}")
+
+
+def test_transparent_film_writes_coverage_as_alpha(tmp_path):
+    """render.transparent: camera rays that escape see nothing (RGB 0, alpha 0), the sphere is
+    still lit by the sky (rho L, alpha 1), edge pixels are partly covered; EXR A and PNG alpha."""
+    import cv2
+
+    from mcpt.api import render_scene
+    from mcpt.output.image import read_exr_channels
+
+    scene = sky_scene(render="{bounces: 4, transparent: true}")
+    exr, png = tmp_path / "t.exr", tmp_path / "t.png"
+    render_scene(scene, outputs=(str(exr), str(png)), spp=32, seed=3)
+    ch = read_exr_channels(exr)
+    a = ch["A"]
+    assert a[0, 0] == 0.0 and ch["R"][0, 0] == 0.0 and np.all(a[9:15, 9:15] == 1.0)
+    assert ((a > 0) & (a < 1)).sum() > 8  # the silhouette's pixels, partly covered
+    assert ch["G"][12, 12] == pytest.approx(RHO[1] * SKY[1], rel=0.1)
+    q = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
+    assert q.shape == (24, 24, 4) and q[0, 0, 3] == 0 and q[12, 12, 3] == 255
+    assert np.array_equal(q[..., 3], np.round(np.clip(a, 0, 1) * 255).astype(np.uint8))

@@ -142,6 +142,7 @@ class Options:
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance: --aov variance)
+    alpha: bool = False             # transparent film: coverage in the squares target's alpha (needs variance)
     aov: bool = False               # albedo, normal, depth targets (glsl/aov.glsl, --aov, --denoise)
 
     def __post_init__(self):
@@ -304,6 +305,7 @@ class Features:
             "MCPT_ONE_SIDED": b(u.one_sided),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
+            "MCPT_ALPHA": b(o.alpha and o.variance),
             "MCPT_AOV": b(o.aov),
             "MCPT_LOOP_LIMIT": self.limits.loop_limit,
             "MCPT_COUNTERS": b(self.switches.counters),
@@ -322,7 +324,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
            sampling: str = "mis", russian_roulette: bool = True,
-           bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False,
+           bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False, alpha: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
            sampler: str = "sobol", continuation: bool = True, lights: dict | None = None) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
@@ -347,7 +349,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         smooth_normals=smooth_normals, fresnel_complex=has("conductor") and fresnel_complex,
         one_sided=one_sided,
         # what the render is asked for; what the driver limits; the switches
-        bounces=bounces, sampler=sampler, clamp=clamp, variance=variance, aov=aov,
+        bounces=bounces, sampler=sampler, clamp=clamp, variance=variance or alpha, aov=aov, alpha=alpha,
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
                                                              traced=not tri_const, n_lights=n_emissive),
         sampling=sampling, russian_roulette=russian_roulette, counters=counters, continuation=continuation)
@@ -361,7 +363,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     f = derive(
         bounces=world.scene.render.bounces if bounces is None else bounces,
         n_triangles=world.n_triangles, n_emissive=world.lights.entries, material_types=used,
-        lights=light_uses(world.lights),
+        lights=light_uses(world.lights), alpha=world.scene.render.transparent,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})

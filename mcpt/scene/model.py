@@ -106,6 +106,10 @@ class RenderSettings(StrictModel):
     """Maximum scattering events per path: 0 = emitters only, 1 = direct light only."""
     seed: Annotated[int, Field(ge=0, lt=2**63)] = 0
     """Random seed, 0 <= seed < 2**63 (fits a signed 64-bit integer)."""
+    transparent: bool = False
+    """Transparent film (issue #20): camera rays that leave the scene see nothing and the image
+    gets an alpha channel (the share of each pixel's camera rays that hit something; EXR ``A``,
+    PNG alpha), for compositing over a plate; the environment still lights the scene."""
 
 
 
