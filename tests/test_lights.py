@@ -166,3 +166,37 @@ def test_sun_disk_on_a_plane_gives_the_same_irradiance(gl, sampling):
     want = RHO / math.pi * 2.0 / math.sqrt(1.25)
     se = math.sqrt(float(res.variance.mean()) / res.image.size) + 1e-6 * want
     assert abs(res.image.mean() - want) / se < 4, (res.image.mean(), want, se)
+
+
+# --- chi-square of the new sampling routines on the real GLSL (tests/glsl/probe_sample.frag) ---
+
+def test_sun_cone_sampling_is_uniform_in_its_cap(gl):
+    """sample_cone about a tilted axis: every direction inside the cap of cos half-angle 0.95,
+    uniform in (cos theta, phi) about the axis, i.e. its pdf 1 / (2 pi (1 - cos_max))."""
+    from .test_materials_util import chi2_test, floats, probe, uniform_numbers
+
+    n, cos_max = 1 << 18, 0.95
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    w = floats(probe(gl, "cone", uniform_numbers(n, 2, seed=31), wo=tuple(axis), alpha=cos_max))[:, :3]
+    w = w.astype(np.float64)
+    np.testing.assert_allclose(np.linalg.norm(w, axis=1), 1.0, atol=1e-5)
+    t = np.cross(axis, [1.0, 0.0, 0.0])
+    t /= np.linalg.norm(t)
+    b = np.cross(axis, t)
+    c = w @ axis
+    assert c.min() >= cos_max - 1e-6
+    phi = np.arctan2(w @ b, w @ t)
+    h, _, _ = np.histogram2d(c, phi, bins=[16, 32], range=[[cos_max, 1.0], [-np.pi, np.pi]])
+    p, stat, dof = chi2_test(h, np.full(h.shape, n / h.size))
+    assert p > 1e-3, f"chi2 = {stat:.1f} for {dof} dof, p = {p:.3g}"
+
+
+def test_environment_sphere_sampling_is_uniform(gl):
+    from .test_materials_util import chi2_test, floats, probe, sphere_histogram, uniform_numbers
+
+    n = 1 << 18
+    w = floats(probe(gl, "sphere", uniform_numbers(n, 2, seed=32)))[:, :3].astype(np.float64)
+    np.testing.assert_allclose(np.linalg.norm(w, axis=1), 1.0, atol=1e-5)
+    h = sphere_histogram(w, 16, 32)
+    p, stat, dof = chi2_test(h, np.full(h.shape, n / h.size))
+    assert p > 1e-3, f"chi2 = {stat:.1f} for {dof} dof, p = {p:.3g}"
