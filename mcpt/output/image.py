@@ -163,7 +163,8 @@ def write_image(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
                 exposure: float = 0.0, layers: dict | None = None, alpha: np.ndarray | None = None) -> None:
     """EXR (with ``layers``, see :func:`write_exr`) or sRGB PNG (the beauty only) by extension;
     ``alpha``: the transparent film's coverage, written as A / the PNG's alpha."""
+    extra = {} if alpha is None else {"alpha": alpha}  # (opaque renders call as before)
     if Path(path).suffix.lower() == ".exr":
-        write_exr(path, rgb, metadata, layers, alpha)
+        write_exr(path, rgb, metadata, layers, **extra)
     else:
-        write_png(path, rgb, exposure, alpha)
+        write_png(path, rgb, exposure, **extra)
