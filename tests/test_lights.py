@@ -200,3 +200,18 @@ def test_environment_sphere_sampling_is_uniform(gl):
     h = sphere_histogram(w, 16, 32)
     p, stat, dof = chi2_test(h, np.full(h.shape, n / h.size))
     assert p > 1e-3, f"chi2 = {stat:.1f} for {dof} dof, p = {p:.3g}"
+
+
+@pytest.mark.parametrize(("name", "kinds"), [
+    ("cornell-box", {"area"}), ("lamps", {"point", "spot"}), ("sky", {"env", "envmap"})])
+def test_shipped_scenes_compile_only_their_light_types(name, kinds):
+    """The light code a program holds is the scene's: the Cornell box's has no punctual, sun or
+    environment code (its paths/s and pixels stay main's), lamps.yaml no area or sky code."""
+    from mcpt.gpu.shader import Source
+
+    world = load_world(parse_scene((ROOT / "scenes" / f"{name}.yaml").read_text(), ROOT / "scenes" / f"{name}.yaml"))
+    text = Source("pathtrace.frag", for_world(world).preamble()).text
+    marks = {"area": "void area_sample", "point": "void punctual_sample", "spot": "float spot_falloff",
+             "sun": "void sun_escaped", "env": "void env_escaped", "envmap": "vec3 env_radiance_pdf"}
+    for kind, mark in marks.items():
+        assert (mark in text) == (kind in kinds or (kind == "point" and "spot" in kinds)), (name, kind)
