@@ -215,3 +215,28 @@ def test_shipped_scenes_compile_only_their_light_types(name, kinds):
              "sun": "void sun_escaped", "env": "void env_escaped", "envmap": "vec3 env_radiance_pdf"}
     for kind, mark in marks.items():
         assert (mark in text) == (kind in kinds or (kind == "point" and "spot" in kinds)), (name, kind)
+
+
+def test_more_sun_disks_than_the_shader_holds_are_refused_with_their_line():
+    from mcpt.errors import McptError
+
+    sun = "  - {type: directional, direction: [0, 0, -1], irradiance: [1, 1, 1], angular_diameter_deg: 1}\n"
+    with pytest.raises(McptError, match=r"inline.yaml:\d+: lights: 5 lights with an angular diameter; "
+                                        r"mcpt takes at most 4"):
+        from mcpt.gpu.pack import pack
+
+        world = load_world(scene(sun * 5))
+        pack(world, for_world(world))
+
+
+def test_info_lists_every_light_with_its_pick_probability():
+    from mcpt.shading.lights import describe_lights
+
+    sc = scene("  - {type: point, position: [0, 0, 1], intensity: [1, 1, 1]}\n"
+               "  - {type: directional, direction: [0, 0, -1], irradiance: [1, 1, 1]}\n")
+    world = load_world(sc)
+    info = describe_lights(world.lights, sc)
+    assert info["entries"] == 2 and info["area (emissive triangles)"] == 0
+    p0 = float(info["point 0"].rsplit(" ", 1)[1])
+    p1 = float(info["directional 1"].rsplit(" ", 1)[1])
+    assert p0 + p1 == pytest.approx(1.0, abs=1e-5) and p0 == pytest.approx(float(world.lights.pmf[0]), rel=1e-5)
