@@ -30,7 +30,7 @@ GL_R32F = 0x822E
 UNITS = {
     "nodes": 1,       # BVH interior nodes, 4 texels each (mcpt/shapes/bvh.py BVH.gpu_nodes)
     "tris": 2,        # triangle vertices, 3 texels each (mcpt/shapes/geometry.py)
-    "lights": 3,      # emissive triangle table, 1 texel each (mcpt/shading/lights.py)
+    "lights": 3,      # light table, 1 texel per light + punctual data (mcpt/shading/lights.py)
     "materials": 4,   # material table, 2 or 4 texels each (mcpt/shading/materials.py)
     "random": 5,      # per-pass random numbers, 1 float each (mcpt/shading/sampler.py)
     "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/shading/normals.py)
