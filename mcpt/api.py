@@ -18,6 +18,7 @@ from .gpu.aov import parse as parse_aovs
 from .prepare import Prepared, prepare
 from .render import Options, Outcome, render, run
 from .shading.camera import camera_summary
+from .shading.lights import describe_lights
 
 __all__ = ["Options", "Outcome", "Prepared", "describe", "prepare", "render", "render_scene", "run"]
 
@@ -47,6 +48,7 @@ def describe(scene, **kwargs) -> dict:
                       "resolution": [cam.width, cam.height], "spp": p.scene.render.spp,
                       "bounces": p.features.bounces, "seed": p.scene.render.seed},
             "counts": {k: v for k, v in p.world.stats.items() if k != "bvh"},
+            "lights": describe_lights(p.world.lights, p.scene),
             "bvh": p.world.bvh.stats(),
             "camera": camera_summary(cam),
             "features": {"key": dict(p.features.key), "defines": p.features.defines()},

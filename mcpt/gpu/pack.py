@@ -7,7 +7,8 @@ reads it:
 
     tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
     nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
-    lights     mcpt/shading/lights.py    <-> glsl/lights.glsl
+    lights     mcpt/shading/lights.py    <-> glsl/lights.glsl (+ light_punctual)
+    env_texels, env_cdf  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
     materials  mcpt/shading/materials.py <-> glsl/materials.glsl
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
@@ -28,6 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..shading.camera import camera_uniforms
+from ..shading.environment import env_uniforms
+from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
@@ -37,7 +40,7 @@ from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-         "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,13 @@ def pack(world: World, features: Features) -> Packed:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
     uniforms = {**camera_uniforms(cam), "u_tri_count": world.n_triangles,
-                "u_light_count": world.lights.count}
+                "u_light_count": world.lights.entries}
+    if features.compiled.sun_lights:
+        uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
+    if features.compiled.environment:
+        uniforms.update(env_uniforms(world.scene.environment, world.lights.envmap,
+                                     world.lights.env_pmf if features.nee else 0.0))
+    if features.compiled.envmap and world.lights.envmap is not None:
+        buffers.update(world.lights.envmap.pack())
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))
     return Packed(cam.width, cam.height, buffers, uniforms, per_item)
