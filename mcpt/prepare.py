@@ -2,6 +2,7 @@
 
     read      mcpt.scene.load_scene            YAML -> validated Scene (+ -D and command-line overrides)
     build     mcpt.shapes.world.load_world     meshes, materials, BVH, lights -> World
+              (through mcpt.shapes.world_cache: a scene built before is read back from disk)
     derive    mcpt.gpu.features.for_world      what the world needs -> Features (the define set)
     pack      mcpt.gpu.pack.pack               World + Features -> buffers and uniforms
     compile   mcpt.gpu.render.Renderer         limits checked, program compiled, buffers uploaded
@@ -24,6 +25,7 @@ from .output.layers import feature_flags as aov_flags
 from .scene import Scene, load_scene
 from .shading.camera import check_camera
 from .shapes.world import World, load_world
+from .shapes.world_cache import cached_world
 
 
 @dataclass
@@ -47,15 +49,17 @@ class Prepared:
 def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
             gl_backend=None, features_mode: str = "scene", clamp: float | None = None,
             feature_flags: dict | None = None, sampler: str | None = None, aovs=(),
-            overrides=()) -> Prepared:
+            overrides=(), cache: bool | None = None) -> Prepared:
     """``aovs``: the AOVs to compute (mcpt/gpu/aov.py; for --denoise include albedo and normal);
-    ``overrides``: ``-D KEY=VALUE`` strings, applied when ``scene`` is a file to read."""
+    ``overrides``: ``-D KEY=VALUE`` strings, applied when ``scene`` is a file to read; ``cache``:
+    read and keep the built world in the on-disk cache (mcpt/cache.py; None: unless
+    ``MCPT_CACHE=0``)."""
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
         scene = load_scene(scene, overrides=tuple(overrides))
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
     gl = shared_context(gl_backend)
-    world = load_world(scene)
+    world = cached_world(scene, load_world, cache)
     check_camera(scene, world.tris)
     flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:

@@ -1,0 +1,161 @@
+"""A content-addressed store on disk: what a slow step made, kept under a key that hashes
+everything the step read, so that a second render, a resume or a farm worker skips it (issue #23).
+
+Where: ``$MCPT_CACHE_DIR``, else ``$XDG_CACHE_HOME/mcpt``, else ``~/.cache/mcpt``. Off with
+``MCPT_CACHE=0`` (the CLI's ``--no-cache`` sets it). Size cap: ``MCPT_CACHE_MAX_MB`` (default
+:data:`DEFAULT_MAX_MB`); the least recently used entries go first (a hit touches its entry).
+
+An entry is one ``.npz`` file (numpy arrays, no pickle: nothing in it can run code), named by
+its key, holding the arrays and a JSON header (format number, key, kind). Safety:
+
+* written to a temporary file in the same folder and renamed over the entry (``os.replace`` is
+  atomic on POSIX and Windows), so a reader, another farm worker or a crash mid-write never sees
+  a partial entry; two workers writing the same key write the same content, the last rename wins;
+* an entry that cannot be read (truncated, corrupt, another format, another key under this
+  name) is a miss: it is deleted and written again, never trusted;
+* a failure to write (full disk, read-only folder) is logged and costs only the cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+log = logging.getLogger("mcpt")
+
+#: Bumped whenever the layout of an entry changes: older entries then miss.
+FORMAT = 1
+DEFAULT_MAX_MB = 4096
+_HEADER = "__mcpt_cache__"
+_SUFFIX = ".npz"
+#: Temporary files older than this (seconds) are leftovers of a crashed writer.
+_STALE_TMP_S = 3600.0
+
+
+def enabled(flag: bool | None = None) -> bool:
+    """``flag`` if given, else on unless ``MCPT_CACHE`` is 0 / off / false / no."""
+    if flag is not None:
+        return bool(flag)
+    return os.environ.get("MCPT_CACHE", "1").strip().lower() not in ("0", "off", "false", "no")
+
+
+def cache_dir() -> Path:
+    if os.environ.get("MCPT_CACHE_DIR"):
+        return Path(os.environ["MCPT_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mcpt"
+
+
+def max_bytes() -> int:
+    try:
+        return int(float(os.environ.get("MCPT_CACHE_MAX_MB", DEFAULT_MAX_MB)) * 2**20)
+    except ValueError:
+        return DEFAULT_MAX_MB * 2**20
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file's bytes ("missing" when it cannot be read: its appearing changes keys)."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            while chunk := f.read(1 << 24):
+                h.update(chunk)
+    except OSError:
+        return "missing"
+    return h.hexdigest()
+
+
+def key_of(*parts) -> str:
+    """A hex key for JSON-able ``parts`` (the format number is part of every key)."""
+    text = json.dumps([FORMAT, *parts], sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class Store:
+    """Entries of one kind (a subfolder name, e.g. "world") in the cache folder."""
+
+    def __init__(self, kind: str, root: Path | None = None) -> None:
+        self.kind = kind
+        self.root = Path(root) if root is not None else cache_dir()
+        self.folder = self.root / kind
+
+    def path(self, key: str) -> Path:
+        return self.folder / f"{key}{_SUFFIX}"
+
+    def get(self, key: str) -> tuple[dict, dict[str, np.ndarray]] | None:
+        """(header's ``meta``, arrays) of the entry ``key``, or None (missing or unusable)."""
+        path = self.path(key)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                header = json.loads(bytes(z[_HEADER]).decode())
+                if header.get("format") != FORMAT or header.get("key") != key or header.get("kind") != self.kind:
+                    raise ValueError("an entry of another format, key or kind")
+                arrays = {name: z[name] for name in z.files if name != _HEADER}
+        except FileNotFoundError:
+            return None
+        except Exception as exc:  # noqa: BLE001 -- whatever is wrong with the file, it is a miss
+            log.info("cache: ignoring unusable entry %s (%s: %s)", path, type(exc).__name__, exc)
+            _unlink(path)
+            return None
+        try:
+            os.utime(path)  # least recently used goes first
+        except OSError:
+            pass
+        return header.get("meta", {}), arrays
+
+    def put(self, key: str, meta: dict, arrays: dict[str, np.ndarray]) -> Path | None:
+        """Write the entry atomically; returns its path (None when writing failed)."""
+        header = {"format": FORMAT, "key": key, "kind": self.kind, "meta": meta}
+        payload = {_HEADER: np.frombuffer(json.dumps(header).encode(), np.uint8), **arrays}
+        tmp = None
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=self.folder, prefix=".tmp-", suffix=_SUFFIX)
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, allow_pickle=False, **payload)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, self.path(key))
+        except (OSError, ValueError) as exc:
+            log.warning("cache: could not write %s (%s); continuing without it", self.path(key), exc)
+            if tmp is not None:
+                _unlink(Path(tmp))
+            return None
+        self.evict(keep=self.path(key))
+        return self.path(key)
+
+    def evict(self, keep: Path | None = None) -> None:
+        """Delete least recently used entries (of every kind) until the cache fits its cap, and
+        temporary files left by crashed writers."""
+        entries, now = [], time.time()
+        for p in self.root.glob(f"*/*{_SUFFIX}"):
+            try:
+                st = p.stat()
+            except OSError:
+                continue
+            if p.name.startswith(".tmp-"):
+                if now - st.st_mtime > _STALE_TMP_S:
+                    _unlink(p)
+                continue
+            entries.append((st.st_mtime, st.st_size, p))
+        total, cap = sum(e[1] for e in entries), max_bytes()
+        for _, size, p in sorted(entries, key=lambda e: e[0]):
+            if total <= cap:
+                break
+            if p != keep:
+                _unlink(p)
+                total -= size
+
+
+def _unlink(path: Path) -> None:
+    try:
+        path.unlink()
+    except OSError:
+        pass
