@@ -5,6 +5,7 @@
               (through mcpt.shapes.world_cache: a scene built before is read back from disk)
     derive    mcpt.gpu.features.for_world      what the world needs -> Features (the define set)
     pack      mcpt.gpu.pack.pack               World + Features -> buffers and uniforms
+              (through mcpt.gpu.pack_cache where the world came through the cache)
     compile   mcpt.gpu.render.Renderer         limits checked, program compiled, buffers uploaded
 
 The render loop (mcpt/render.py) calls :func:`prepare` once per render, a farm worker
@@ -20,6 +21,7 @@ from pathlib import Path
 from .gpu.context import GLContext, shared_context
 from .gpu.features import Features, for_world, loop_limit_for
 from .gpu.pack import pack
+from .gpu.pack_cache import cached_pack
 from .gpu.render import Renderer
 from .output.layers import feature_flags as aov_flags
 from .scene import Scene, load_scene
@@ -67,6 +69,6 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     feats = for_world(world, clamp=clamp is not None, **flags)
     if features_mode == "all":
         feats = feats.everything()
-    renderer = Renderer(gl, feats, pack(world, feats), clamp=clamp)
+    renderer = Renderer(gl, feats, cached_pack(world, feats, pack, cache), clamp=clamp)
     return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0, features_mode,
                     clamp, tuple(aovs), tuple(overrides), gl_backend)

@@ -248,3 +248,25 @@ def test_the_no_cache_flag_writes_nothing(own_cache, monkeypatch):
     monkeypatch.setenv("MCPT_CACHE", "1")
     out = CliRunner().invoke(main, ["info", str(CORNELL), "--json"])
     assert json.loads(out.output)["counts"]["cache"] == "miss" and len(entries(own_cache)) == 1
+
+
+@pytest.mark.parametrize("scene_file", [CORNELL, SPOT_SCENE])
+def test_cached_packed_buffers_equal_a_fresh_pack(scene_file, own_cache):
+    from mcpt.gpu.features import for_world
+    from mcpt.gpu.pack import pack
+    from mcpt.gpu.pack_cache import cached_pack
+
+    scene = load_scene(scene_file)
+    packs = []
+    for _ in range(2):  # miss, then hit
+        world = cached_world(scene, load_world)
+        feats = for_world(world, loop_limit=1000)
+        packs.append(cached_pack(world, feats, pack))
+    fresh = pack(load_world(scene), feats)
+    assert len(list((own_cache / "packed").glob("*.npz"))) == 1
+    for p in packs:
+        assert p.buffers.keys() == fresh.buffers.keys()
+        for k, v in fresh.buffers.items():
+            assert p.buffers[k].dtype == v.dtype and np.array_equal(p.buffers[k], v), k
+        assert p.uniforms == fresh.uniforms and p.per_item == fresh.per_item
+        assert (p.width, p.height) == (fresh.width, fresh.height)

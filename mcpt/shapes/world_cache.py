@@ -38,7 +38,7 @@ log = logging.getLogger("mcpt")
 CACHEABLE_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".serialized", ".glb", ".gltf")
 #: Packages whose source shapes a world: their .py files are part of every key.
 _SOURCE_PACKAGES = ("shapes", "scene", "shading")
-_source_digest: str | None = None
+_source_digests: dict[tuple, str] = {}
 
 
 class Uncacheable(Exception):
@@ -58,6 +58,7 @@ def cached_world(scene: Scene, build: Callable[[Scene], object], enabled: bool |
     if hit is not None:
         world = _from_entry(scene, *hit)
         if world is not None:
+            world.cache_key = key  # the packed buffers' cache (mcpt/gpu/pack_cache.py) builds on it
             world.stats["cache"] = "hit"
             world.stats["load_seconds"] = time.perf_counter() - t0
             return world
@@ -68,6 +69,7 @@ def cached_world(scene: Scene, build: Callable[[Scene], object], enabled: bool |
         log.info("cache: world of %s not cached (%s)", scene.source_path, exc)
         return world
     store.put(key, meta, arrays)
+    world.cache_key = key
     world.stats["cache"] = "miss"
     return world
 
@@ -89,7 +91,7 @@ def world_key(scene: Scene) -> str | None:
         files[str(path)] = hashlib.sha256(data).hexdigest() if data is not None else "missing"
         for companion in _companions(path, data):
             files[str(companion)] = cache.file_digest(companion)
-    return cache.key_of("world", doc, files, _versions())
+    return cache.key_of("world", doc, files, versions())
 
 
 def _read(path: Path) -> bytes | None:
@@ -122,15 +124,15 @@ def _companions(path: Path, data: bytes | None) -> list[Path]:
     return out
 
 
-def _versions() -> dict:
-    """What else shapes a world: mcpt's world-building source, numpy's and Assimp's versions."""
-    global _source_digest
-    if _source_digest is None:
+def versions(packages: tuple[str, ...] = _SOURCE_PACKAGES) -> dict:
+    """What else shapes a result: the source of mcpt's ``packages`` (subfolders of mcpt/), numpy's
+    and Assimp's versions."""
+    if packages not in _source_digests:
         root, h = Path(__file__).resolve().parent.parent, hashlib.sha256()
-        for pkg in _SOURCE_PACKAGES:
+        for pkg in packages:
             for f in sorted((root / pkg).rglob("*.py")):
                 h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes())
-        _source_digest = h.hexdigest()
+        _source_digests[packages] = h.hexdigest()
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -139,16 +141,16 @@ def _versions() -> dict:
         assimp = "none"
     from .. import __version__
 
-    return {"mcpt": __version__, "source": _source_digest, "numpy": np.__version__, "assimp": assimp}
+    return {"mcpt": __version__, "source": _source_digests[packages], "numpy": np.__version__, "assimp": assimp}
 
 
 def _to_entry(world) -> tuple[dict, dict[str, np.ndarray]]:
     arrays: dict[str, np.ndarray] = {}
-    fields = {f.name: _encode(getattr(world, f.name), arrays)
+    fields = {f.name: encode(getattr(world, f.name), arrays)
               for f in dataclasses.fields(world) if f.name != "scene"}
     deps = {str(t.path): cache.file_digest(t.path) for t in getattr(world, "textures", [])
             if getattr(t, "path", None) is not None}
-    return {"class": _class_name(world), "fields": fields, "deps": deps}, arrays
+    return {"class": class_name(world), "fields": fields, "deps": deps}, arrays
 
 
 def _from_entry(scene: Scene, meta: dict, arrays: dict):
@@ -157,21 +159,21 @@ def _from_entry(scene: Scene, meta: dict, arrays: dict):
         for path, digest in meta["deps"].items():
             if cache.file_digest(Path(path)) != digest:
                 return None
-        fields = {k: _decode(v, arrays) for k, v in meta["fields"].items()}
-        return _construct(meta["class"], {"scene": scene, **fields})
+        fields = {k: decode(v, arrays) for k, v in meta["fields"].items()}
+        return construct(meta["class"], {"scene": scene, **fields})
     except Exception as exc:  # noqa: BLE001 -- an entry that does not decode is a miss
         log.info("cache: world entry unusable (%s: %s)", type(exc).__name__, exc)
         return None
 
 
-def _class_name(value) -> str:
+def class_name(value) -> str:
     cls = type(value)
     if not cls.__module__.startswith("mcpt."):
         raise Uncacheable(f"{cls.__module__}.{cls.__qualname__} is not an mcpt class")
     return f"{cls.__module__}:{cls.__qualname__}"
 
 
-def _construct(name: str, fields: dict):
+def construct(name: str, fields: dict):
     module, _, qualname = name.partition(":")
     if not module.startswith("mcpt.") or "." in qualname:
         raise ValueError(f"refusing to build {name!r}")
@@ -186,7 +188,7 @@ def _construct(name: str, fields: dict):
     return made
 
 
-def _encode(value, arrays: dict):
+def encode(value, arrays: dict):
     """A JSON-able description of ``value``; its arrays go to ``arrays``."""
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
@@ -201,21 +203,21 @@ def _encode(value, arrays: dict):
     if isinstance(value, Path):
         return {"__p": str(value)}
     if isinstance(value, (tuple, list)):
-        items = [_encode(v, arrays) for v in value]
+        items = [encode(v, arrays) for v in value]
         return {"__t": items} if isinstance(value, tuple) else items
     if isinstance(value, dict):
         if not all(isinstance(k, str) for k in value):
             raise Uncacheable("a dict with non-string keys")
-        return {"__d": {k: _encode(v, arrays) for k, v in value.items()}}
+        return {"__d": {k: encode(v, arrays) for k, v in value.items()}}
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {"__c": _class_name(value),
-                "f": {f.name: _encode(getattr(value, f.name), arrays) for f in dataclasses.fields(value)}}
+        return {"__c": class_name(value),
+                "f": {f.name: encode(getattr(value, f.name), arrays) for f in dataclasses.fields(value)}}
     raise Uncacheable(f"a {type(value).__name__}")
 
 
-def _decode(value, arrays: dict):
+def decode(value, arrays: dict):
     if isinstance(value, list):
-        return [_decode(v, arrays) for v in value]
+        return [decode(v, arrays) for v in value]
     if not isinstance(value, dict):
         return value
     if "__a" in value:
@@ -225,9 +227,9 @@ def _decode(value, arrays: dict):
     if "__p" in value:
         return Path(value["__p"])
     if "__t" in value:
-        return tuple(_decode(v, arrays) for v in value["__t"])
+        return tuple(decode(v, arrays) for v in value["__t"])
     if "__d" in value:
-        return {k: _decode(v, arrays) for k, v in value["__d"].items()}
+        return {k: decode(v, arrays) for k, v in value["__d"].items()}
     if "__c" in value:
-        return _construct(value["__c"], {k: _decode(v, arrays) for k, v in value["f"].items()})
+        return construct(value["__c"], {k: decode(v, arrays) for k, v in value["f"].items()})
     raise ValueError(f"unknown entry item {sorted(value)}")
