@@ -270,3 +270,26 @@ def test_cached_packed_buffers_equal_a_fresh_pack(scene_file, own_cache):
             assert p.buffers[k].dtype == v.dtype and np.array_equal(p.buffers[k], v), k
         assert p.uniforms == fresh.uniforms and p.per_item == fresh.per_item
         assert (p.width, p.height) == (fresh.width, fresh.height)
+
+
+@pytest.mark.parametrize("text", [
+    b"v 1 2 3\nf 1 2 3\n", b"# nan inf e+99\nv 1 2 3\n", b"v 1e-05 2 3\n", b"v 1e38 0 0\n", b"v 1E+40 0 0\n",
+    b"v 1 2 3e400\n", b"v nan 0 0 # n\n", b"v 0 0 -inf\n", b"o NaN\nv 1 2 3\n", b"v 1 2 3 # e+40\n",
+    b"mtllib a.mtl\nusemtl Inf\nv 1 2 3\n"])
+def test_the_quick_scan_for_bad_vertices_finds_what_the_full_scan_finds(text):
+    """ObjFile.bad_vertex skips the full scan when no vertex can be bad: same answers."""
+    import math
+    import re
+
+    from mcpt.shapes.obj import FLOAT32_MAX, ObjFile
+
+    bad = None
+    for k, m in enumerate(re.finditer(rb"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", text, re.MULTILINE)):
+        xyz = [float(t) for t in m.groups()]
+        if not all(math.isfinite(x) and abs(x) <= FLOAT32_MAX for x in xyz):
+            bad = k + 1
+            break
+    found = ObjFile("x.obj", text).bad_vertex()
+    assert (found is None) == (bad is None)
+    if bad is not None:
+        assert f"vertex {bad} is not finite" in found
