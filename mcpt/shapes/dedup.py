@@ -36,12 +36,13 @@ def first_of_repeated_corners(tris32: np.ndarray) -> np.ndarray:
     w = np.ascontiguousarray(tris32, dtype=np.float32).view(np.uint32)
     if len(w) < 2:
         return np.arange(len(w))
-    c = [w[:, k] for k in range(3)]
-    r = np.zeros(len(w), np.int64)
-    for k in (1, 2):  # strictly smaller than the smallest so far: ties keep the first corner
-        best = np.take_along_axis(w, r[:, None, None].repeat(3, axis=2), axis=1)[:, 0]
-        r[_less(c[k], best)] = k
-    canon = np.take_along_axis(w, ((r[:, None] + np.arange(3)) % 3)[:, :, None], axis=1)
+    c0, c1, c2 = w[:, 0], w[:, 1], w[:, 2]
+    # Strictly smaller than the smallest so far: ties keep the first corner (np.argmin's rule).
+    r1 = _less(c1, c0)
+    r2 = _less(c2, np.where(r1[:, None], c1, c0))
+    canon = np.empty((len(w), 3, 3), np.uint32)
+    for j, (a, b, c) in enumerate(((c0, c1, c2), (c1, c2, c0), (c2, c0, c1))):
+        canon[:, j] = np.where(r2[:, None], c, np.where(r1[:, None], b, a))
     return first_of_rows(canon.reshape(len(w), 9))
 
 
@@ -53,11 +54,11 @@ def _less(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def row_hash(rows: np.ndarray) -> np.ndarray:
     """(N,) uint64 hash of each row of an (N, K) integer array (wrapping arithmetic)."""
-    words = rows.astype(np.uint64, copy=False)
     h = np.full(len(rows), 0xCBF29CE484222325, np.uint64)
     with np.errstate(over="ignore"):
-        for k in range(rows.shape[1]):
-            h = (h ^ words[:, k]) * _PRIME
+        for k in range(rows.shape[1]):  # a column at a time: no (N, K) uint64 copy
+            h ^= rows[:, k].astype(np.uint64)
+            h *= _PRIME
         h ^= h >> np.uint64(30)
         h *= _MIX1
         h ^= h >> np.uint64(27)
