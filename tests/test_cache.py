@@ -293,3 +293,16 @@ def test_the_quick_scan_for_bad_vertices_finds_what_the_full_scan_finds(text):
     assert (found is None) == (bad is None)
     if bad is not None:
         assert f"vertex {bad} is not finite" in found
+
+
+def test_remembered_file_digests_follow_every_change(tmp_path, own_cache):
+    f = tmp_path / "m.obj"
+    f.write_bytes(b"v 0 0 0\n")
+    os.utime(f, ns=(1_000_000_000_000_000_000, 1_000_000_000_000_000_000))  # long before the record
+    first = cache.file_digest(f)
+    assert list((own_cache / "digests").glob("*.json"))  # remembered
+    assert cache.file_digest(f) == first
+    f.write_bytes(b"v 1 0 0\n")  # same size; mtime put back: the ctime still moves
+    os.utime(f, ns=(1_000_000_000_000_000_000, 1_000_000_000_000_000_000))
+    assert cache.file_digest(f) != first
+    assert cache.file_digest(tmp_path / "none.obj") == "missing"

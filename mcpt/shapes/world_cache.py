@@ -87,18 +87,11 @@ def world_key(scene: Scene) -> str | None:
         path = Path(spec.file).resolve()
         if path.suffix.lower() not in CACHEABLE_SUFFIXES:
             return None
-        data = _read(path)
-        files[str(path)] = hashlib.sha256(data).hexdigest() if data is not None else "missing"
-        for companion in _companions(path, data):
-            files[str(companion)] = cache.file_digest(companion)
+        files[str(path)], companions = cache.file_facts(
+            path, lambda data, p=path: [str(c) for c in _companions(p, data)])
+        for companion in companions or ():
+            files[companion] = cache.file_digest(Path(companion))
     return cache.key_of("world", doc, files, versions())
-
-
-def _read(path: Path) -> bytes | None:
-    try:
-        return path.read_bytes()
-    except OSError:
-        return None
 
 
 def _companions(path: Path, data: bytes | None) -> list[Path]:
