@@ -26,6 +26,7 @@ import mmap
 import os
 import struct
 import tempfile
+import threading
 import time
 import zipfile
 import zlib
@@ -142,6 +143,7 @@ class Store:
         The arrays are read-only views of the file mapped into memory (:func:`_mapped_arrays`):
         what a caller never touches is never read, and nothing is copied."""
         path = self.path(key)
+        _join(path)  # this process may still be writing it
         try:
             arrays = _mapped_arrays(path)
             header = json.loads(bytes(arrays.pop(_HEADER)).decode())
@@ -158,6 +160,18 @@ class Store:
         except OSError:
             pass
         return header.get("meta", {}), arrays
+
+    def put_behind(self, key: str, meta: dict, arrays: dict[str, np.ndarray]) -> None:
+        """:meth:`put` in a background thread: the render goes on while the entry is written
+        (zlib's CRC and the file writes release the GIL). The arrays must not change meanwhile.
+        The thread is not a daemon, so the interpreter finishes the write before it exits;
+        :func:`wait` joins every pending write."""
+        path = self.path(key)
+        _join(path)
+        thread = threading.Thread(target=self.put, args=(key, meta, arrays), name=f"mcpt-cache-{key[:8]}")
+        with _PENDING_LOCK:
+            _PENDING[path] = thread
+        thread.start()
 
     def put(self, key: str, meta: dict, arrays: dict[str, np.ndarray]) -> Path | None:
         """Write the entry atomically; returns its path (None when writing failed)."""
@@ -200,6 +214,26 @@ class Store:
             if p != keep:
                 _unlink(p)
                 total -= size
+
+
+_PENDING: dict[Path, threading.Thread] = {}
+_PENDING_LOCK = threading.Lock()
+
+
+def _join(path: Path) -> None:
+    with _PENDING_LOCK:
+        thread = _PENDING.pop(path, None)
+    if thread is not None and thread is not threading.current_thread():
+        thread.join()
+
+
+def wait() -> None:
+    """Wait for every entry this process is writing in the background (:meth:`Store.put_behind`)."""
+    with _PENDING_LOCK:
+        threads = list(_PENDING.values())
+        _PENDING.clear()
+    for thread in threads:
+        thread.join()
 
 
 def _write_npz(f, arrays: dict[str, np.ndarray]) -> None:

@@ -64,8 +64,9 @@ def small_scene(tmp_path, obj_text: str):
     return tmp_path / "s.yaml"
 
 
-def entries(folder):
-    return sorted((folder / "world").glob("*.npz"))
+def entries(folder, kind="world"):
+    cache.wait()  # entries are written in the background
+    return sorted((folder / kind).glob("*.npz"))
 
 
 def test_cached_world_equals_the_built_one_and_renders_the_same_pixels(own_cache):
@@ -154,6 +155,7 @@ def test_a_foreign_class_name_is_never_imported(own_cache):
 def test_the_cache_can_be_switched_off(own_cache, monkeypatch):
     monkeypatch.setenv("MCPT_CACHE", "0")
     w = cached_world(load_scene(CORNELL), load_world)
+    cache.wait()
     assert "cache" not in w.stats and not own_cache.exists()
 
 
@@ -196,6 +198,7 @@ def test_concurrent_writers_leave_one_whole_entry(own_cache):
 def _cold_world(folder):
     os.environ["MCPT_CACHE_DIR"] = folder
     w = cached_world(load_scene(CORNELL), load_world)
+    cache.wait()  # a pool's worker is terminated, not shut down: finish the write first
     return w.tris.tobytes(), w.bvh.nodes.tobytes()
 
 
@@ -244,6 +247,7 @@ def test_the_no_cache_flag_writes_nothing(own_cache, monkeypatch):
     monkeypatch.setenv("MCPT_CACHE", "1")  # the flag sets it to 0 in-process; undone after the test
     out = CliRunner().invoke(main, ["info", str(CORNELL), "--no-cache", "--json"])
     assert out.exit_code == 0, out.output
+    cache.wait()
     assert not own_cache.exists() and "cache" not in json.loads(out.output)["counts"]
     monkeypatch.setenv("MCPT_CACHE", "1")
     out = CliRunner().invoke(main, ["info", str(CORNELL), "--json"])
@@ -263,7 +267,7 @@ def test_cached_packed_buffers_equal_a_fresh_pack(scene_file, own_cache):
         feats = for_world(world, loop_limit=1000)
         packs.append(cached_pack(world, feats, pack))
     fresh = pack(load_world(scene), feats)
-    assert len(list((own_cache / "packed").glob("*.npz"))) == 1
+    assert len(entries(own_cache, "packed")) == 1
     for p in packs:
         assert p.buffers.keys() == fresh.buffers.keys()
         for k, v in fresh.buffers.items():

@@ -44,5 +44,5 @@ def cached_pack(world, features, pack: Callable, enabled: bool | None = None):
     except world_cache.Uncacheable as exc:
         log.info("cache: packed buffers not cached (%s)", exc)
         return packed
-    store.put(key, meta, arrays)
+    store.put_behind(key, meta, arrays)
     return packed

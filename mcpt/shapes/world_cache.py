@@ -68,7 +68,7 @@ def cached_world(scene: Scene, build: Callable[[Scene], object], enabled: bool |
     except Uncacheable as exc:
         log.info("cache: world of %s not cached (%s)", scene.source_path, exc)
         return world
-    store.put(key, meta, arrays)
+    store.put_behind(key, meta, arrays)
     world.cache_key = key
     world.stats["cache"] = "miss"
     return world
