@@ -17,6 +17,8 @@ gives medians:
 mcpt's columns: ``host`` = scene file read, world built (meshes, duplicates, BVH, lights) or read
 back, features derived, buffers packed or read back: prepare() less the GL work; ``gl`` = program
 compile and buffer upload; ``ctx`` = GL context creation (llvmpipe, the same for any scene).
+``cpu`` = the process's CPU seconds over ``total`` (all its threads): steadier than wall time on a
+loaded machine. The ratio column is total over Mitsuba's OBJ load, medians of each.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from mcpt.gpu.render import Renderer
 from mcpt.scene import load_scene
 from mcpt.shapes.world import load_world
 from mcpt.shapes.world_cache import cached_world
-t0 = time.perf_counter(); gl = shared_context(None); t1 = time.perf_counter()
+t0 = time.perf_counter(); gl = shared_context(None); t1 = time.perf_counter(); c1 = time.process_time()
 scene = load_scene(sys.argv[1])
 world = cached_world(scene, load_world)
 feats = for_world(world, loop_limit=loop_limit_for(gl.renderer))
@@ -52,7 +54,7 @@ packed = cached_pack(world, feats, pack)
 t2 = time.perf_counter()
 renderer = Renderer(gl, feats, packed)
 t3 = time.perf_counter()
-print(json.dumps({"ctx": t1 - t0, "host": t2 - t1, "gl": t3 - t2, "total": t3 - t1,
+print(json.dumps({"ctx": t1 - t0, "host": t2 - t1, "gl": t3 - t2, "total": t3 - t1, "cpu": time.process_time() - c1,
                   "cache": world.stats.get("cache"), "triangles": world.n_triangles}))
 """
 
@@ -61,14 +63,15 @@ import json, sys, time
 sys.path.insert(0, sys.argv[2])
 from peer_mitsuba import _import_mitsuba
 mi, dr, _ = _import_mitsuba("llvm_ad_rgb")
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), time.process_time()
 if sys.argv[3] == "obj":
     shape = mi.load_dict({"type": "obj", "filename": sys.argv[1]})
     n = shape.face_count()
 else:
     scene = mi.load_dict({"type": "scene", "sphere": {"type": "obj", "filename": sys.argv[1]}})
     n = sum(s.face_count() for s in scene.shapes())
-print(json.dumps({"total": time.perf_counter() - t0, "triangles": int(n), "version": mi.__version__}))
+print(json.dumps({"total": time.perf_counter() - t0, "cpu": time.process_time() - c0, "triangles": int(n),
+                  "version": mi.__version__}))
 """
 
 
@@ -113,10 +116,11 @@ def measure(folder: Path, rounds: int, work: Path, peer: bool = True) -> dict:
 
 def table(res: dict) -> str:
     mi_obj = res.get("mitsuba obj", {}).get("total")
-    lines = [f"{'':14s} {'total s':>8s} {'host s':>7s} {'gl s':>6s} {'ctx s':>6s} {'/ mitsuba obj':>14s}"]
+    lines = [f"{'':14s} {'total s':>8s} {'host s':>7s} {'gl s':>6s} {'ctx s':>6s} {'cpu s':>6s} {'/ mitsuba obj':>14s}"]
     for k, v in res.items():
         ratio = f"{v['total'] / mi_obj:14.2f}" if mi_obj else f"{'':14s}"
-        cols = " ".join(f"{v[c]:{w}.3f}" if c in v else " " * w for c, w in (("host", 7), ("gl", 6), ("ctx", 6)))
+        cols = " ".join(f"{v[c]:{w}.3f}" if c in v else " " * w
+                        for c, w in (("host", 7), ("gl", 6), ("ctx", 6), ("cpu", 6)))
         lines.append(f"{k:14s} {v['total']:8.3f} {cols} {ratio}")
     return "\n".join(lines)
 
