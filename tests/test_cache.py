@@ -310,3 +310,15 @@ def test_remembered_file_digests_follow_every_change(tmp_path, own_cache):
     os.utime(f, ns=(1_000_000_000_000_000_000, 1_000_000_000_000_000_000))
     assert cache.file_digest(f) != first
     assert cache.file_digest(tmp_path / "none.obj") == "missing"
+
+
+def test_the_setup_benchmark_times_a_cold_miss_then_a_warm_hit(tmp_path):
+    from mcpt.bench import setup_speed
+
+    from .conftest import CORNELL_REF
+
+    res = setup_speed.measure(CORNELL_REF, 1, tmp_path, peer=False)
+    cold, warm = res["mcpt cold"]["runs"][0], res["mcpt warm"]["runs"][0]
+    assert (cold["cache"], warm["cache"]) == ("miss", "hit")
+    assert cold["triangles"] == warm["triangles"] == 36
+    assert "mcpt cold" in setup_speed.table(res)
