@@ -322,3 +322,22 @@ def test_the_setup_benchmark_times_a_cold_miss_then_a_warm_hit(tmp_path):
     assert (cold["cache"], warm["cache"]) == ("miss", "hit")
     assert cold["triangles"] == warm["triangles"] == 36
     assert "mcpt cold" in setup_speed.table(res)
+
+
+def test_an_edited_texture_misses_the_cache(tmp_path, own_cache):
+    import cv2
+
+    doc = yaml.safe_load(SPOT_SCENE.read_text())
+    for m in doc["meshes"]:
+        m["file"] = str(SPOT_SCENE.parent / m["file"])
+    image = cv2.imread(str(SPOT_SCENE.parent / doc["materials"]["spot"]["albedo_texture"]["file"]))
+    cv2.imwrite(str(tmp_path / "t.png"), image)
+    doc["materials"]["spot"]["albedo_texture"]["file"] = str(tmp_path / "t.png")
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    a = cached_world(load_scene(tmp_path / "s.yaml"), load_world)
+    assert cached_world(load_scene(tmp_path / "s.yaml"), load_world).stats["cache"] == "hit"
+    cv2.imwrite(str(tmp_path / "t.png"), 255 - image)
+    b = cached_world(load_scene(tmp_path / "s.yaml"), load_world)
+    assert b.stats["cache"] == "miss"
+    assert not np.array_equal(a.textures[0].srgb, b.textures[0].srgb)
+    assert_same_world(b, load_world(load_scene(tmp_path / "s.yaml")))

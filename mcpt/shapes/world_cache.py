@@ -50,7 +50,12 @@ def cached_world(scene: Scene, build: Callable[[Scene], object], enabled: bool |
     if not cache.enabled(enabled):
         return build(scene)
     t0 = time.perf_counter()
-    key = world_key(scene)
+    try:
+        key = world_key(scene)
+    except Exception as exc:  # noqa: BLE001 -- the cache must never stop a render
+        log.warning("cache: no key for %s (%s: %s); building without the cache",
+                    scene.source_path, type(exc).__name__, exc)
+        key = None
     if key is None:
         return build(scene)
     store = cache.Store("world")
@@ -65,8 +70,8 @@ def cached_world(scene: Scene, build: Callable[[Scene], object], enabled: bool |
     world = build(scene)
     try:
         meta, arrays = _to_entry(world)
-    except Uncacheable as exc:
-        log.info("cache: world of %s not cached (%s)", scene.source_path, exc)
+    except Exception as exc:  # noqa: BLE001 -- Uncacheable, or a texture gone since the build
+        log.info("cache: world of %s not cached (%s: %s)", scene.source_path, type(exc).__name__, exc)
         return world
     store.put_behind(key, meta, arrays)
     world.cache_key = key
