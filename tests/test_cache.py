@@ -254,7 +254,7 @@ def test_the_no_cache_flag_writes_nothing(own_cache, monkeypatch):
     assert json.loads(out.output)["counts"]["cache"] == "miss" and len(entries(own_cache)) == 1
 
 
-@pytest.mark.parametrize("scene_file", [CORNELL, SPOT_SCENE])
+@pytest.mark.parametrize("scene_file", [CORNELL, SPOT_SCENE, ROOT / "scenes" / "sky.yaml"])
 def test_cached_packed_buffers_equal_a_fresh_pack(scene_file, own_cache):
     from mcpt.gpu.features import for_world
     from mcpt.gpu.pack import pack
@@ -341,3 +341,30 @@ def test_an_edited_texture_misses_the_cache(tmp_path, own_cache):
     assert b.stats["cache"] == "miss"
     assert not np.array_equal(a.textures[0].srgb, b.textures[0].srgb)
     assert_same_world(b, load_world(load_scene(tmp_path / "s.yaml")))
+
+
+def test_a_scene_with_every_light_type_is_cached_and_an_edited_environment_map_misses(tmp_path, own_cache):
+    """scenes/sky.yaml (an environment map file, a sun) and scenes/lamps.yaml (point and spot)."""
+    for name in ("lamps.yaml", "sky.yaml"):
+        scene = load_scene(ROOT / "scenes" / name)
+        built = load_world(scene)
+        cached_world(scene, load_world)
+        hit = cached_world(scene, load_world)
+        assert hit.stats["cache"] == "hit", name
+        assert_same_world(built, hit)
+        assert hit.lights.kinds == built.lights.kinds and len(hit.lights.punctual) == len(built.lights.punctual)
+        assert np.array_equal(hit.lights.pmf, built.lights.pmf)
+        if built.lights.envmap is not None:
+            for f in ("texels", "conditional_cdf", "cell_pdf", "to_world"):
+                assert np.array_equal(getattr(hit.lights.envmap, f), getattr(built.lights.envmap, f)), f
+    doc = yaml.safe_load((ROOT / "scenes" / "sky.yaml").read_text())
+    shutil.copy(ROOT / "scenes" / doc["environment"]["file"], tmp_path / "env.exr")
+    doc["environment"]["file"] = str(tmp_path / "env.exr")
+    for m in doc["meshes"]:
+        if m.get("file"):
+            m["file"] = str(ROOT / "scenes" / m["file"])
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    assert cached_world(load_scene(tmp_path / "s.yaml"), load_world).stats["cache"] == "miss"
+    assert cached_world(load_scene(tmp_path / "s.yaml"), load_world).stats["cache"] == "hit"
+    (tmp_path / "env.exr").write_bytes((tmp_path / "env.exr").read_bytes() + b"\0")  # another file
+    assert cached_world(load_scene(tmp_path / "s.yaml"), load_world).stats["cache"] == "miss"

@@ -22,6 +22,7 @@ import hashlib
 import importlib
 import json
 import logging
+import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -85,7 +86,7 @@ def world_key(scene: Scene) -> str | None:
     doc.pop("render", None)
     doc.pop("name", None)
     doc["camera"] = {"position": doc["camera"]["position"]}
-    files = {}
+    files = {f: cache.file_digest(Path(f)) for f in _named_files(doc)}
     for spec in scene.meshes:
         if spec.file is None:
             continue
@@ -97,6 +98,22 @@ def world_key(scene: Scene) -> str | None:
         for companion in companions or ():
             files[companion] = cache.file_digest(Path(companion))
     return cache.key_of("world", doc, files, versions())
+
+
+def _named_files(doc) -> list[str]:
+    """Every string of the scene document that names an existing file by an absolute path: mesh
+    files, textures, environment maps, and whatever file-valued key the scene format gains."""
+    out = []
+    stack = [doc]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            stack.extend(item.values())
+        elif isinstance(item, list):
+            stack.extend(item)
+        elif isinstance(item, str) and os.path.isabs(item) and os.path.isfile(item):
+            out.append(item)
+    return sorted(set(out))
 
 
 def _companions(path: Path, data: bytes | None) -> list[Path]:
@@ -200,6 +217,10 @@ def encode(value, arrays: dict):
         return {"__n": value.dtype.str, "v": value.item()}
     if isinstance(value, Path):
         return {"__p": str(value)}
+    if isinstance(value, (set, frozenset)):
+        items = [_encode_item(v, arrays) for v in value]
+        return {"__s": sorted(items, key=lambda v: json.dumps(v, sort_keys=True)),
+                "frozen": isinstance(value, frozenset)}
     if isinstance(value, (tuple, list)):
         items = [encode(v, arrays) for v in value]
         return {"__t": items} if isinstance(value, tuple) else items
@@ -213,6 +234,13 @@ def encode(value, arrays: dict):
     raise Uncacheable(f"a {type(value).__name__}")
 
 
+def _encode_item(value, arrays: dict):
+    """A set's item: hashable scalars only (an array has no place in a set)."""
+    if not isinstance(value, (bool, int, float, str, type(None))):
+        raise Uncacheable(f"a set holding a {type(value).__name__}")
+    return encode(value, arrays)
+
+
 def decode(value, arrays: dict):
     if isinstance(value, list):
         return [decode(v, arrays) for v in value]
@@ -224,6 +252,9 @@ def decode(value, arrays: dict):
         return np.dtype(value["__n"]).type(value["v"])
     if "__p" in value:
         return Path(value["__p"])
+    if "__s" in value:
+        items = [decode(v, arrays) for v in value["__s"]]
+        return frozenset(items) if value["frozen"] else set(items)
     if "__t" in value:
         return tuple(decode(v, arrays) for v in value["__t"])
     if "__d" in value:
