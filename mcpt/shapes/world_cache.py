@@ -5,11 +5,11 @@ a farm worker of the same scene skips reading the meshes, the duplicate search a
 The key hashes everything :func:`mcpt.shapes.world.load_world` reads and every input that shapes
 what it returns: the scene as validated, without what the world does not depend on (the render
 settings, the camera's aim and image: only its position, the rebasing origin, is used); the bytes
-of every mesh file and of the files it names (an OBJ's MTL files, a .gltf's buffers and images);
-the source of the Python modules that build worlds and the versions of numpy and Assimp. Files
-found only while loading (texture images) are recorded in the entry with their hashes and checked
-on every hit. A scene that reads a file of a format whose companions mcpt cannot name is not
-cached.
+of every file the scene names by path (meshes, textures, environment maps) and of the files a mesh
+names (an OBJ's MTL files, a .gltf's buffers and images); the source of the Python modules that
+build worlds and the versions of numpy and Assimp. Files found only while loading (textures an
+MTL file names) are recorded in the entry with their hashes and checked on every hit. A scene
+that reads a mesh format whose companions mcpt cannot name is not cached.
 
 An entry stores the World's dataclasses field by field: arrays as npz arrays, the rest as JSON,
 rebuilt only as classes of mcpt (a class name from elsewhere makes the entry unusable).
