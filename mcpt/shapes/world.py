@@ -23,13 +23,15 @@ import numpy as np
 from ..errors import McptError
 from ..scene import Scene
 from ..scene.material_meaning import MaterialResolver
+from ..shading.environment import env_power, load_environment
+from ..shading.light_punctual import punctual_lights
 from ..shading.lights import Lights, build_lights
 from ..shading.materials import MaterialTable
 from ..shading.normal_map import vertex_tangents
 from . import geometry
 from .bvh import BVH
 from .bvh_build import build_bvh
-from .dedup import first_of_duplicates
+from .dedup import first_of_repeated_corners
 from .mesh import Mesh, MeshError, assemble, read_geometry
 from .sources import flipped, source_of
 
@@ -96,8 +98,8 @@ def load_world(scene: Scene) -> World:
     tris = tris[bvh.order]
     tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
-    lights = build_lights(geometry.areas(tris), table.emission[tri_mat])
-    if lights.count == 0:
+    lights = _lights(scene, tris, table.emission[tri_mat])
+    if lights.entries == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")
     stats = {"triangles": int(tris.shape[0]),
@@ -107,6 +109,17 @@ def load_world(scene: Scene) -> World:
              "textures": len(resolver.textures), "load_seconds": t_load, "bvh": bvh.stats()}
     return World(scene, tris, tri_mat, table, lights, bvh, stats, normals, uvs, resolver.textures,
                  _corner_tangents(parts, keep, bvh.order))
+
+
+def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
+    """Emissive triangles, the scene's punctual lights and its environment (issue #20), in one
+    table; positions relative to the camera like the triangles."""
+    lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
+    radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
+    origin = np.asarray(scene.camera.position, np.float64)
+    envmap = load_environment(scene.environment, scene.where("environment", "file"))
+    return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
+                        env_power(scene.environment, envmap, radius), envmap)
 
 
 def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:
@@ -147,9 +160,7 @@ def _drop_repeated(tris32: np.ndarray, n_meshes: int):
     dropped (mesh.py does this within a file)."""
     if n_meshes < 2:
         return tris32, slice(None), 0
-    corners = np.ascontiguousarray(tris32.reshape(-1, 3)).view(np.uint32)
-    _, ids = np.unique(corners, axis=0, return_inverse=True)
-    keep = first_of_duplicates(ids.reshape(-1, 3))
+    keep = first_of_repeated_corners(tris32)
     repeated = int(tris32.shape[0] - keep.size)
     if repeated:
         # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one

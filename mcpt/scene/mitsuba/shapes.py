@@ -162,4 +162,6 @@ def relative_paths(data: dict, folder: Path) -> dict:
         for key in ("albedo_texture", "normal_map", "bump_map", "opacity"):
             if "file" in mat.get(key, {}):
                 mat[key]["file"] = rel(mat[key]["file"])
+    if "file" in (data.get("environment") or {}):  # issue #20: an envmap's image
+        data["environment"]["file"] = rel(data["environment"]["file"])
     return data
