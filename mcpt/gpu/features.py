@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
+from ..scene.animation import camera_moves
 from ..shading.lights import light_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
@@ -101,6 +102,7 @@ class Uses:
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
+    camera_moves: bool = False      # issue #26: an animated camera, its eye a uniform (camera.glsl)
 
     def everything(self) -> Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
@@ -303,6 +305,7 @@ class Features:
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
+            "MCPT_CAMERA_MOVES": b(u.camera_moves),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
             "MCPT_ALPHA": b(o.alpha and o.variance),
@@ -376,4 +379,6 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
                       tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
+        f = f.replace(camera_moves=True)
     return f

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..scene.animation import eye_offset
 from ..shading.camera import basis
 from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
@@ -76,6 +77,8 @@ def pack(world: World, features: Features) -> Packed:
     uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
                 "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
                 "u_light_count": world.lights.entries}
+    if features.compiled.camera_moves:  # issue #26: the eye relative to the rebased geometry
+        uniforms["u_cam_eye"] = eye_offset(world.scene)
     if features.compiled.sun_lights:
         uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
     if features.compiled.environment:
