@@ -23,6 +23,8 @@ def render_frames(scene_file, opts, frames_text, as_json: bool, quiet: bool) -> 
             click.echo(f"frame {rep.frame}: wrote {', '.join(rep.outputs)}: {rep.spp} spp, "
                        f"{rep.render_seconds:.2f} s render, set-up {rep.setup_seconds:.3f} s", err=True)
 
+    if opts.workers or opts.scheduler:  # one Dask task per frame (mcpt/farm/frames.py)
+        from mcpt.farm.frames import sequence_on_cluster as render_sequence  # noqa: F811
     with StopSignals() as signals:
         out = render_sequence(scene_file, opts, frames, signals, on_frame=said)
     if out.interrupted is not None:

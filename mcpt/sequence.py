@@ -130,55 +130,84 @@ def default_frames(scene: Scene) -> list:
     return list(range(first, last + 1))
 
 
-def render_sequence(scene, opts: Options, frames=None, signals: StopSignals | None = None,
-                    on_frame=None) -> SequenceOutcome:
-    """Render ``frames`` (default: the scene's ``animation.frames``) of ``scene`` to
-    ``opts.outputs`` (patterns). ``on_frame(FrameReport)`` after each frame written."""
-    signals = signals if signals is not None else StopSignals()
+def plan(scene, opts: Options, frames=None):
+    """The base scene, the frames, each frame's outputs (checked) and the frames still to do."""
     base = base_scene(scene, opts)
     frames = list(frames) if frames is not None else default_frames(base)
     paths = check_outputs(opts.outputs, frames)
-    out = SequenceOutcome(frames)
-    todo = [f for f in frames if not done(paths[f])]
-    out.skipped = [f for f in frames if f not in todo]
-    rebuild = base.animation is not None and bool(base.animation.meshes)
-    out.rebuilt = rebuild
-    started, p, last_wall = opts.started, None, 0.0
+    return base, frames, paths, [f for f in frames if not done(paths[f])]
+
+
+class FrameMaker:
+    """Frames of one scene, as one process renders them: prepared once when only the camera moves
+    (then each frame sets the camera's uniforms), prepared per frame when meshes move. A farm
+    worker (mcpt/farm/frames.py) renders its frames with one of these too."""
+
+    def __init__(self, base: Scene, opts: Options):
+        self.base, self.opts, self.p = base, opts, None
+        anim = base.animation
+        self.rebuild = anim is not None and bool(anim.meshes)
+        self.camera = anim is not None and anim.camera is not None
+        self.prepare_seconds = 0.0
+
+    def render(self, f: int, paths: list, signals: StopSignals):
+        """Frame ``f`` to ``paths``: ``(FrameReport, None)``, or ``(None, signum)`` if stopped."""
+        t0 = time.perf_counter()
+        scene_f = at_frame(self.base, f)
+        fresh = self.p is None or self.rebuild
+        if fresh:
+            self.release()
+            self.p = _prepare(scene_f, self.opts)
+            self.prepare_seconds = self.prepare_seconds or self.p.setup_seconds
+        elif self.camera:
+            for name, value in camera_uniforms(scene_f).items():
+                self.p.renderer._uniform(name, value)
+        p = replace(self.p, scene=scene_f)
+        setup = p.setup_seconds if fresh else time.perf_counter() - t0
+        state = st.state_path(paths[0])
+        frame_opts = replace(self.opts, outputs=[str(x) for x in paths], spp=None, seed=None,
+                             time_budget=None, resume=self.opts.resume and state.exists(),
+                             workers=None, scheduler=None, client=None, started=time.perf_counter())
+        res = run(p, frame_opts, signals)
+        if res.interrupted is not None:
+            return None, res.interrupted
+        state.unlink(missing_ok=True)  # the frame is done: no state may call it partial
+        return FrameReport(f, [str(x) for x in paths], setup, res.result.render_seconds,
+                           time.perf_counter() - t0, res.result.spp, scene_f.render.seed), None
+
+    def release(self) -> None:
+        if self.p is not None:
+            self.p.renderer.release()
+            self.p = None
+
+
+def render_sequence(scene, opts: Options, frames=None, signals: StopSignals | None = None,
+                    on_frame=None) -> SequenceOutcome:
+    """Render ``frames`` (default: the scene's ``animation.frames``) of ``scene`` to
+    ``opts.outputs`` (patterns) in this process. ``on_frame(FrameReport)`` after each frame."""
+    signals = signals if signals is not None else StopSignals()
+    base, frames, paths, todo = plan(scene, opts, frames)
+    out = SequenceOutcome(frames, skipped=[f for f in frames if f not in todo])
+    maker = FrameMaker(base, opts)
+    out.rebuilt = maker.rebuild
+    last_wall = 0.0
     try:
         for f in todo:
-            if opts.time_budget is not None and time.perf_counter() - started + last_wall > opts.time_budget:
+            if opts.time_budget is not None and \
+                    time.perf_counter() - opts.started + last_wall > opts.time_budget:
                 out.stopped_by = "time"
                 break
-            t0 = time.perf_counter()
-            scene_f = at_frame(base, f)
-            if p is None or rebuild:
-                if p is not None:
-                    p.renderer.release()
-                p = _prepare(scene_f, opts)
-                if not out.prepare_seconds:
-                    out.prepare_seconds = p.setup_seconds
-            elif base.animation is not None and base.animation.camera is not None:
-                for name, value in camera_uniforms(scene_f).items():
-                    p.renderer._uniform(name, value)
-            p = replace(p, scene=scene_f)
-            setup = time.perf_counter() - t0 if not (rebuild or f == todo[0]) else p.setup_seconds
-            state = st.state_path(paths[f][0])
-            frame_opts = replace(opts, outputs=list(paths[f]), spp=None, seed=None, time_budget=None,
-                                 resume=opts.resume and state.exists(), started=time.perf_counter())
-            res = run(p, frame_opts, signals)
-            if res.interrupted is not None:
-                out.stopped_by, out.interrupted = "signal", res.interrupted
+            rep, signum = maker.render(f, paths[f], signals)
+            if rep is None:
+                out.stopped_by, out.interrupted = "signal", signum
                 break
-            state.unlink(missing_ok=True)  # the frame is done: no state may call it partial
-            last_wall = time.perf_counter() - t0
-            rep = FrameReport(f, [str(x) for x in paths[f]], setup, res.result.render_seconds,
-                              last_wall, res.result.spp, scene_f.render.seed)
+            last_wall = rep.wall_seconds
             out.rendered.append(rep)
             if on_frame is not None:
                 on_frame(rep)
     finally:
-        if p is not None:
-            p.renderer.release()
+        out.prepare_seconds = maker.prepare_seconds
+        maker.release()
     return out
 
 

@@ -207,3 +207,29 @@ def test_cli_bad_sequences_exit_2_and_write_nothing(tmp_path, args, needles):
     for n in needles:
         assert n in lines[0], (n, lines[0])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt"]
+
+
+# ---- on Dask ------------------------------------------------------------------------------------
+
+def test_a_farm_sequence_equals_the_one_process_sequence(tmp_path):
+    pytest.importorskip("distributed")
+    from distributed import Client
+
+    from mcpt.farm.cluster import local_cluster
+    from mcpt.farm.frames import sequence_on_cluster
+
+    opts = dict(spp=16, resolution=(20, 20), seed=3)
+    one = render_sequence(ORBIT, Options([str(tmp_path / "one.##.exr")], **opts), [4, 5, 6, 30])
+    (tmp_path / "farm.05.exr").write_bytes((tmp_path / "one.05.exr").read_bytes())  # done already
+    cluster = local_cluster(2, lp_threads=1)
+    try:
+        with Client(cluster) as client:
+            farm = sequence_on_cluster(ORBIT, Options([str(tmp_path / "farm.##.exr")], client=client,
+                                                      **opts), [4, 5, 6, 30])
+    finally:
+        cluster.close()
+    assert [r.frame for r in farm.rendered] == [4, 6, 30] and farm.skipped == [5]
+    assert [r.seed for r in farm.rendered] == [r.seed for r in one.rendered if r.frame != 5]
+    for f in (4, 6, 30):
+        np.testing.assert_array_equal(read_exr(tmp_path / f"farm.{f:02d}.exr")[0],
+                                      read_exr(tmp_path / f"one.{f:02d}.exr")[0])
