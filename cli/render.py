@@ -90,7 +90,8 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
                    time_budget=time_budget, checkpoint=checkpoint, resume=resume,
                    first_pass=first_pass, overrides=tuple(overrides), workers=workers,
                    scheduler=scheduler, progress=prog, started=started)
-    if frames_text is not None or any("#" in str(o) for o in outputs):  # issue #26
+    if frames_text is not None or any("#" in str(o) or str(o).lower().endswith(".mp4")
+                                      for o in outputs):  # issue #26: a sequence
         from .sequence import render_frames
 
         return render_frames(scene_file, opts, frames_text, as_json, quiet)

@@ -233,3 +233,38 @@ def test_a_farm_sequence_equals_the_one_process_sequence(tmp_path):
     for f in (4, 6, 30):
         np.testing.assert_array_equal(read_exr(tmp_path / f"farm.{f:02d}.exr")[0],
                                       read_exr(tmp_path / f"one.{f:02d}.exr")[0])
+
+
+# ---- video --------------------------------------------------------------------------------------
+
+def test_render_to_mp4_and_encode_frames(tmp_path):
+    ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    r = invoke(str(ORBIT), "--frames", "1-4", "--spp", "8", "--resolution", "33x24",
+               "-o", str(tmp_path / "a.mp4"), "-o", str(tmp_path / "a.##.png"))
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["encode", str(tmp_path / "a.##.png"), "-o", str(tmp_path / "b.mp4"),
+                                  "--fps", "12"], catch_exceptions=False)
+    assert r.exit_code == 0, r.output
+    import cv2
+
+    pngs = [cv2.imread(str(tmp_path / f"a.{f:02d}.png"))[..., ::-1].astype(np.float64) for f in range(1, 5)]
+    for name, fps in (("a.mp4", 24.0), ("b.mp4", 12.0)):
+        reader = ffmpeg.read_frames(str(tmp_path / name))
+        meta = next(reader)
+        assert meta["size"] == (34, 24) and meta["fps"] == fps  # odd width padded, not scaled
+        frames = [np.frombuffer(b, np.uint8).reshape(24, 34, 3)[:, :33] for b in reader]
+        assert len(frames) == 4
+        for got, png in zip(frames, pngs):  # H.264 is lossy: close to the PNG tone mapping
+            assert np.abs(got - png).mean() < 6.0, np.abs(got - png).mean()
+
+
+def test_video_without_ffmpeg_is_one_line(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    r = invoke(str(ORBIT), "--frames", "1-2", "--spp", "4", "--resolution", "8x8", "-o",
+               str(tmp_path / "v.mp4"))
+    assert r.exit_code == 2
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "pip install 'mcpt[video]'" in lines[0], lines
+    assert not list(tmp_path.iterdir())
