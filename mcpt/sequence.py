@@ -132,6 +132,8 @@ def default_frames(scene: Scene) -> list:
 
 def plan(scene, opts: Options, frames=None):
     """The base scene, the frames, each frame's outputs (checked) and the frames still to do."""
+    if opts.first_pass:
+        raise SequenceError("--first-pass renders a pass range of one still, not a sequence")
     base = base_scene(scene, opts)
     frames = list(frames) if frames is not None else default_frames(base)
     paths = check_outputs(opts.outputs, frames)

@@ -268,3 +268,19 @@ def test_video_without_ffmpeg_is_one_line(tmp_path, monkeypatch):
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "pip install 'mcpt[video]'" in lines[0], lines
     assert not list(tmp_path.iterdir())
+
+
+def test_time_budget_stops_between_frames_and_a_rerun_finishes(tmp_path):
+    scene = load_scene(ORBIT).with_overrides(**SMALL)
+    pattern = str(tmp_path / "t.#.exr")
+    import time
+
+    render_sequence(scene, Options([pattern]), [1])
+    # 0.05 s of a 1000 s budget left: frame 2 starts (nothing timed yet in this run), then the
+    # budget left cannot hold another frame of frame 2's time (> 0.05 s at 24x24, 16 spp)
+    opts = Options([pattern], time_budget=1000.0, started=time.perf_counter() - 999.95)
+    cut = render_sequence(scene, opts, [1, 2, 3])
+    assert [r.frame for r in cut.rendered] == [2] and cut.stopped_by == "time" and cut.skipped == [1]
+    assert not (tmp_path / "t.3.exr").exists()
+    rest = render_sequence(scene, Options([pattern], time_budget=3600), [1, 2, 3])
+    assert [r.frame for r in rest.rendered] == [3] and rest.skipped == [1, 2] and rest.stopped_by is None
