@@ -20,7 +20,9 @@ In a scene file::
 Each channel (camera position, look_at, ...; a mesh's translate, rotate, scale) is interpolated
 over the keys that set it (mcpt/scene/keyframes.py); a camera channel no key sets keeps the
 ``camera:`` value, a mesh channel no key sets is the identity. A mesh's animated placement
-``T(t) R(t) S(t)`` applies AFTER its own ``transform``. Keys must be in strictly increasing frame
+``T(t) R(t) S(t)`` applies in the mesh's own frame, BEFORE its ``transform``: world =
+``transform * T R S`` (a placed object turns about its own origin; a glTF node's animated local
+transform under its parent's, mcpt/scene/gltf/animation.py). Keys must be in strictly increasing frame
 order. Frames before the first key of a channel hold its first key, after the last its last.
 
 The geometry is rebased (mcpt/shapes/world.py) at the file's ``camera.position`` whatever the
@@ -40,6 +42,7 @@ from .diagnostics import FieldError
 from .fields import StrictModel, Vec3, list_to_tuple, scalar_to_vec3
 from .fields import fixed_list as _fixed
 from .keyframes import Track, euler_quat, quat_matrix
+from .transform import Transform
 
 Quat = Annotated[tuple[float, float, float, float], _fixed(4)]
 Interp = Literal["linear", "smooth"]
@@ -104,6 +107,10 @@ class MeshTrack(StrictModel):
     """Index of the mesh in ``meshes:``."""
     interpolation: Interp = "smooth"
     keys: Annotated[tuple[MeshKey, ...], BeforeValidator(list_to_tuple), Field(min_length=1)]
+    parent: Transform | None = None
+    """The frame the animated ``T R S`` live in (default: the mesh's ``transform``, which then
+    stays the rest pose only where no key is): the glTF reader sets it to an animated node's
+    parent's world matrix, keeping ``transform`` the node's rest placement."""
 
     @model_validator(mode="after")
     def _order(self) -> MeshTrack:

@@ -35,7 +35,8 @@ def at_frame(scene, frame: int):
             data["camera"] = camera_at(anim.camera, data["camera"], frame)
         for track in anim.meshes:
             mesh = scene.meshes[track.mesh]
-            m = mesh_matrix(track, frame) @ mesh.transform.matrix()
+            space = track.parent if track.parent is not None else mesh.transform
+            m = space.matrix() @ mesh_matrix(track, frame)  # in the mesh's own frame
             rows = tuple(tuple(float(x) for x in row) for row in m)
             data["meshes"][track.mesh] = mesh.model_copy(update={"transform": Transform(matrix=rows)})
     try:
