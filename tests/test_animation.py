@@ -270,17 +270,22 @@ def test_video_without_ffmpeg_is_one_line(tmp_path, monkeypatch):
     assert not list(tmp_path.iterdir())
 
 
-def test_time_budget_stops_between_frames_and_a_rerun_finishes(tmp_path):
+def test_time_budget_stops_between_frames_and_a_rerun_finishes(tmp_path, monkeypatch):
+    import itertools
+    import types
+
+    import mcpt.sequence
+
     scene = load_scene(ORBIT).with_overrides(**SMALL)
     pattern = str(tmp_path / "t.#.exr")
-    import time
-
     render_sequence(scene, Options([pattern]), [1])
-    # 0.05 s of a 1000 s budget left: frame 2 starts (nothing timed yet in this run), then the
-    # budget left cannot hold another frame of frame 2's time (> 0.05 s at 24x24, 16 spp)
-    opts = Options([pattern], time_budget=1000.0, started=time.perf_counter() - 999.95)
-    cut = render_sequence(scene, opts, [1, 2, 3])
+    # A clock that says 1 s passes between any two readings of it in mcpt/sequence.py: frame 2
+    # starts (1 s used of 5, no frame timed yet), takes 2 s; 5 s used + 2 s > 5: frame 3 does not
+    ticks = itertools.count(1.0)
+    monkeypatch.setattr(mcpt.sequence, "time", types.SimpleNamespace(perf_counter=lambda: next(ticks)))
+    cut = render_sequence(scene, Options([pattern], time_budget=5.0, started=0.0), [1, 2, 3])
     assert [r.frame for r in cut.rendered] == [2] and cut.stopped_by == "time" and cut.skipped == [1]
     assert not (tmp_path / "t.3.exr").exists()
+    monkeypatch.undo()
     rest = render_sequence(scene, Options([pattern], time_budget=3600), [1, 2, 3])
     assert [r.frame for r in rest.rendered] == [3] and rest.skipped == [1, 2] and rest.stopped_by is None
