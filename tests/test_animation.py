@@ -212,25 +212,39 @@ def test_cli_bad_sequences_exit_2_and_write_nothing(tmp_path, args, needles):
 # ---- on Dask ------------------------------------------------------------------------------------
 
 def test_a_farm_sequence_equals_the_one_process_sequence(tmp_path):
+    """Two workers, one task per frame; one worker killed (SIGKILL) when the first frame arrives:
+    its frame is retried elsewhere and every frame is the one-process frame, bit for bit."""
     pytest.importorskip("distributed")
+    import os
+    import signal
+
     from distributed import Client
 
     from mcpt.farm.cluster import local_cluster
     from mcpt.farm.frames import sequence_on_cluster
 
+    frames = [4, 5, 6, 7, 8, 30]
     opts = dict(spp=16, resolution=(20, 20), seed=3)
-    one = render_sequence(ORBIT, Options([str(tmp_path / "one.##.exr")], **opts), [4, 5, 6, 30])
+    one = render_sequence(ORBIT, Options([str(tmp_path / "one.##.exr")], **opts), frames)
     (tmp_path / "farm.05.exr").write_bytes((tmp_path / "one.05.exr").read_bytes())  # done already
     cluster = local_cluster(2, lp_threads=1)
+    killed = []
     try:
         with Client(cluster) as client:
+            def kill_one(rep):
+                if not killed:
+                    victim = sorted(client.run(os.getpid).values())[0]
+                    os.kill(victim, signal.SIGKILL)
+                    killed.append(victim)
+
             farm = sequence_on_cluster(ORBIT, Options([str(tmp_path / "farm.##.exr")], client=client,
-                                                      **opts), [4, 5, 6, 30])
+                                                      **opts), frames, on_frame=kill_one)
     finally:
         cluster.close()
-    assert [r.frame for r in farm.rendered] == [4, 6, 30] and farm.skipped == [5]
+    assert killed
+    assert [r.frame for r in farm.rendered] == [4, 6, 7, 8, 30] and farm.skipped == [5]
     assert [r.seed for r in farm.rendered] == [r.seed for r in one.rendered if r.frame != 5]
-    for f in (4, 6, 30):
+    for f in (4, 6, 7, 8, 30):
         np.testing.assert_array_equal(read_exr(tmp_path / f"farm.{f:02d}.exr")[0],
                                       read_exr(tmp_path / f"one.{f:02d}.exr")[0])
 
