@@ -145,8 +145,9 @@ class FrameMaker:
     (then each frame sets the camera's uniforms), prepared per frame when meshes move. A farm
     worker (mcpt/farm/frames.py) renders its frames with one of these too."""
 
-    def __init__(self, base: Scene, opts: Options):
-        self.base, self.opts, self.p = base, opts, None
+    def __init__(self, base: Scene, opts: Options, client=None):
+        """``client``: a Dask client to spread each frame's pass ranges over (mcpt/farm/)."""
+        self.base, self.opts, self.p, self.client = base, opts, None, client
         anim = base.animation
         self.rebuild = anim is not None and bool(anim.meshes)
         self.camera = anim is not None and anim.camera is not None
@@ -169,7 +170,8 @@ class FrameMaker:
         state = st.state_path(paths[0])
         frame_opts = replace(self.opts, outputs=[str(x) for x in paths], spp=None, seed=None,
                              time_budget=None, resume=self.opts.resume and state.exists(),
-                             workers=None, scheduler=None, client=None, started=time.perf_counter())
+                             workers=None, scheduler=None, client=self.client,
+                             started=time.perf_counter())
         res = run(p, frame_opts, signals)
         if res.interrupted is not None:
             return None, res.interrupted

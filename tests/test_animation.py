@@ -303,3 +303,34 @@ def test_time_budget_stops_between_frames_and_a_rerun_finishes(tmp_path, monkeyp
     monkeypatch.undo()
     rest = render_sequence(scene, Options([pattern], time_budget=3600), [1, 2, 3])
     assert [r.frame for r in rest.rendered] == [3] and rest.skipped == [1, 2] and rest.stopped_by is None
+
+
+def test_a_single_farm_frame_spreads_its_pass_ranges(tmp_path):
+    """One frame left: its passes go out as pass-range tasks whose workers prepare the scene at
+    that frame (the job names it); the frame equals the one-process frame bit for bit."""
+    pytest.importorskip("distributed")
+    from distributed import Client
+
+    from mcpt.farm.cluster import local_cluster
+    from mcpt.farm.frames import sequence_on_cluster
+
+    opts = dict(spp=64 * 3, resolution=(16, 16), seed=5)
+    render_sequence(ORBIT, Options([str(tmp_path / "one.#.exr")], **opts), [7])
+    cluster = local_cluster(2, lp_threads=1)
+    try:
+        with Client(cluster) as client:
+            farm = sequence_on_cluster(ORBIT, Options([str(tmp_path / "farm.#.exr")], client=client,
+                                                      **opts), [7])
+            # pass-range tasks prepare the job on the workers (worker.py); frame tasks use _MAKERS
+            held = client.run(_farm_state)
+    finally:
+        cluster.close()
+    assert [r.frame for r in farm.rendered] == [7]
+    assert sum(n for n, _ in held.values()) >= 1 and all(m == 0 for _, m in held.values()), held
+    np.testing.assert_array_equal(read_exr(tmp_path / "farm.7.exr")[0], read_exr(tmp_path / "one.7.exr")[0])
+
+
+def _farm_state():
+    from mcpt.farm import frames, worker
+
+    return len(worker._PREPARED), len(frames._MAKERS)

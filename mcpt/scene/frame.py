@@ -10,6 +10,7 @@ from pydantic import ValidationError
 from .animation import camera_at, mesh_matrix, origin
 from .diagnostics import SceneError, line_of, to_scene_error
 from .model import Scene
+from .reader import load_scene
 from .transform import Transform
 
 
@@ -20,13 +21,14 @@ def frame_seed(seed: int, frame: int) -> int:
     return int(state) >> 1
 
 
-def at_frame(scene, frame: int):
+def at_frame(scene, frame: int, seed: int | None = None):
     """The scene at ``frame``: camera and animated meshes evaluated, ``render.seed`` the frame's
-    (:func:`frame_seed`), the geometry's origin the rest pose's. A scene without animation is
-    returned with only the seed changed."""
+    (:func:`frame_seed`; ``seed``: that seed, already derived), the geometry's origin the rest
+    pose's. A scene without animation is returned with only the seed changed."""
     anim = scene.animation
+    seed = frame_seed(scene.render.seed, frame) if seed is None else seed
     data = {"name": scene.name, "camera": scene.camera.model_dump(),
-            "render": {**scene.render.model_dump(), "seed": frame_seed(scene.render.seed, frame)},
+            "render": {**scene.render.model_dump(), "seed": seed},
             "materials": dict(scene.materials), "meshes": list(scene.meshes),
             "lights": scene.lights, "environment": scene.environment, "animation": anim}
     if anim is not None:
@@ -55,3 +57,18 @@ def frame_metadata(scene) -> dict:
     if anim is None or anim.frame is None:
         return {}
     return {"frame": anim.frame, "fps": anim.fps}
+
+
+def frame_job(scene) -> dict:
+    """What a farm job (mcpt/farm/cluster.py job_for) adds for a frame: its number."""
+    anim = getattr(scene, "animation", None)
+    return {} if anim is None or anim.frame is None else {"frame": anim.frame}
+
+
+def job_scene(job: dict):
+    """The scene a farm worker prepares for ``job``: the file, or the file at the job's frame
+    with the job's (frame) seed."""
+    if "frame" not in job:
+        return job["scene"]
+    base = load_scene(job["scene"], overrides=tuple(job["overrides"]))
+    return at_frame(base, job["frame"], seed=job["seed"])
