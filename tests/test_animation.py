@@ -334,3 +334,21 @@ def _farm_state():
     from mcpt.farm import frames, worker
 
     return len(worker._PREPARED), len(frames._MAKERS)
+
+
+@pytest.mark.parametrize("args, needles", [
+    (["{d}/none.####.png", "-o", "{d}/v.mp4"], ["none.####.png", "no frames found"]),
+    (["{d}/a.png", "-o", "{d}/v.avi"], ["v.avi", "use .mp4"]),
+])
+def test_encode_bad_input_is_one_line(tmp_path, args, needles):
+    pytest.importorskip("imageio_ffmpeg")
+    import cv2
+
+    cv2.imwrite(str(tmp_path / "a.png"), np.zeros((4, 4, 3), np.uint8))
+    r = CliRunner().invoke(main, ["encode", *[a.format(d=tmp_path) for a in args]], catch_exceptions=False)
+    assert r.exit_code == 2, r.output
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("mcpt: error:"), lines
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png"]
