@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cli.main import main
 from mcpt.api import render as render_still
+from mcpt.cli.main import main
 from mcpt.output.image import read_exr
 from mcpt.render import Options
 from mcpt.scene import load_scene
