@@ -22,6 +22,7 @@ from .gpu.pack import pack
 from .gpu.render import Renderer
 from .output.layers import feature_flags as aov_flags
 from .scene import Scene, load_scene
+from .shading.camera import check_camera
 from .shapes.world import World, load_world
 
 
@@ -55,6 +56,7 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
     gl = shared_context(gl_backend)
     world = load_world(scene)
+    check_camera(scene, world.tris)
     flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:
         flags["sampler"] = sampler

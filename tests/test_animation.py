@@ -120,6 +120,8 @@ def write_scene(tmp_path, animation: str):
     ("  meshes:\n    - mesh: 9\n      keys:\n        - {frame: 1, translate: [0, 0, 0]}\n",
      ["animation.meshes.0.mesh", "no mesh 9"]),
     ("  frames: [5, 2]\n", ["animation.frames"]),
+    ("  camera:\n    keys:\n      - {frame: 1, focus_distance: 2}\n",
+     ["animation.camera.keys.0.focus_distance", "needs a thin lens"]),
     ("  camera:\n    interpolation: cubic\n    keys:\n      - {frame: 1, position: [0, 0, 4]}\n",
      ["animation.camera.interpolation"]),
 ])
@@ -152,13 +154,23 @@ def still(scene, frame, path):
     return read_exr(path)[0]
 
 
-@pytest.mark.parametrize("meshes", ["moving", "still"])
+LENS = ("camera.lens={focus_distance: 3.9, aperture_radius: 0.08}", "camera.vfov_deg=null",
+        "camera.fov_deg=45", "camera.filter={type: gaussian}")
+RACK_FOCUS = "animation.camera.keys=[{frame: 1, position: [-1.2, 0.3, 3.7], focus_distance: 2.5}, " \
+             "{frame: 40, position: [1.2, -0.2, 3.7], focus_distance: 4.5}]"
+
+
+@pytest.mark.parametrize("meshes", ["moving", "still", "lens"])
 def test_frame_n_of_a_sequence_is_the_still_at_n(tmp_path, meshes):
-    scene = load_scene(ORBIT).with_overrides(**SMALL)
+    over = (*LENS, RACK_FOCUS, "animation.meshes=[]") if meshes == "lens" else ()
+    scene = load_scene(ORBIT, overrides=over).with_overrides(**SMALL)
     if meshes == "still":
         scene = scene.model_copy(update={"animation": scene.animation.model_copy(update={"meshes": ()})})
     out = render_sequence(scene, Options([str(tmp_path / "f.##.exr")]), [1, 9, 30])
     assert [r.frame for r in out.rendered] == [1, 9, 30] and out.rebuilt == (meshes == "moving")
+    if meshes == "lens":  # the lens keys reach the camera; a keyless vfov still follows fov_deg
+        cam = at_frame(scene, 9).camera
+        assert cam.lens.focus_distance == pytest.approx(2.5 + 2.0 * 8 / 39, abs=1e-12) and cam.fov_deg == 45
     frames = {f: read_exr(tmp_path / f"f.{f:02d}.exr")[0] for f in (1, 9, 30)}
     assert not np.array_equal(frames[1], frames[9])
     for f in (9, 30):  # frames after the first reuse the prepared scene (camera) or rebuild it

@@ -46,7 +46,7 @@ from .transform import Transform
 
 Quat = Annotated[tuple[float, float, float, float], _fixed(4)]
 Interp = Literal["linear", "smooth"]
-CAMERA_CHANNELS = ("position", "look_at", "up", "vfov_deg")
+CAMERA_CHANNELS = ("position", "look_at", "up", "vfov_deg", "focus_distance")
 MESH_CHANNELS = ("translate", "rotate", "scale")
 
 
@@ -64,6 +64,9 @@ class CameraKey(StrictModel):
     look_at: Vec3 | None = None
     up: Vec3 | None = None
     vfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
+    """Keyed, it replaces a ``fov_deg`` of the camera (the vertical fov is what is animated)."""
+    focus_distance: Annotated[float, Field(gt=0.0)] | None = None
+    """A thin lens's plane in focus (world units; needs ``camera.lens``): a rack focus."""
 
 
 class MeshKey(StrictModel):
@@ -155,7 +158,13 @@ class Animation(StrictModel):
 
 
 def check_scene(scene) -> None:
-    """Scene-level checks (called by Scene's validator): each track names a mesh that exists."""
+    """Scene-level checks (called by Scene's validator): each track names a mesh that exists;
+    focus keys have a lens to focus."""
+    cam = scene.animation.camera
+    for i, key in enumerate(cam.keys if cam is not None else ()):
+        if key.focus_distance is not None and scene.camera.lens is None:
+            raise FieldError(("animation", "camera", "keys", i, "focus_distance"),
+                             "focus_distance needs a thin lens (camera.lens)")
     for i, track in enumerate(scene.animation.meshes):
         if track.mesh >= len(scene.meshes):
             raise FieldError(("animation", "meshes", i, "mesh"),
@@ -185,11 +194,19 @@ def _track(keys, name: str, mode: str, rotation: bool = False, value=None) -> Tr
 def camera_at(track: CameraTrack, camera: dict, frame: float) -> dict:
     """The camera's fields (``model_dump`` form) at ``frame``."""
     out = dict(camera)
+    if out.get("fov_deg") is not None:
+        out["vfov_deg"] = None  # derived from fov_deg again (as Scene.with_overrides does)
     for name in CAMERA_CHANNELS:
         t = _track(track.keys, name, track.interpolation)
-        if t is not None:
-            v = t.at(frame)
-            out[name] = float(v[0]) if name == "vfov_deg" else tuple(float(x) for x in v)
+        if t is None:
+            continue
+        v = t.at(frame)
+        if name == "vfov_deg":
+            out.update(vfov_deg=float(v[0]), fov_deg=None, fov_axis=None)
+        elif name == "focus_distance":
+            out["lens"] = {**out["lens"], "focus_distance": float(v[0])}
+        else:
+            out[name] = tuple(float(x) for x in v)
     return out
 
 
@@ -214,11 +231,8 @@ def eye_offset(scene) -> tuple:
 
 
 def camera_uniforms(scene) -> dict:
-    """The uniforms a moving camera changes between frames (as mcpt/gpu/pack.py sets them)."""
-    from ..shading.camera import basis
+    """The uniforms a moving camera changes between frames: every camera uniform as
+    mcpt/gpu/pack.py sets it (mcpt/shading/camera.py), and the eye."""
+    from ..shading.camera import camera_uniforms as of_camera
 
-    cam = scene.camera
-    f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
-    return {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
-            "u_cam_eye": eye_offset(scene)}
-
+    return {**of_camera(scene.camera), "u_cam_eye": eye_offset(scene)}
