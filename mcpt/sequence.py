@@ -160,7 +160,8 @@ class FrameMaker:
         fresh = self.p is None or self.rebuild
         if fresh:
             self.release()
-            self.p = _prepare(scene_f, self.opts)
+            # moving meshes make every frame's world its own: keep them out of the set-up cache
+            self.p = _prepare(scene_f, self.opts, cache=False if self.rebuild else None)
             self.prepare_seconds = self.prepare_seconds or self.p.setup_seconds
         elif self.camera:
             for name, value in camera_uniforms(scene_f).items():
@@ -215,7 +216,7 @@ def render_sequence(scene, opts: Options, frames=None, signals: StopSignals | No
     return out
 
 
-def _prepare(scene: Scene, opts: Options):
+def _prepare(scene: Scene, opts: Options, cache: bool | None = None):
     return prepare(scene, gl_backend=opts.gl_backend, features_mode=opts.features_mode,
                    clamp=opts.clamp, sampler=opts.sampler,
-                   aovs=computed_aovs(opts.aovs, opts.denoise))
+                   aovs=computed_aovs(opts.aovs, opts.denoise), cache=cache)
