@@ -47,28 +47,37 @@ def build_alias(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r = live // size
         ql = qf[live]
         small = ql < 1.0
-        deficit = np.where(small, 1.0 - ql, 0.0)
-        # Row-wise running sums over the unfinished buckets only (a round costs what is left):
-        # the start of each small item's deficit, the end of each large item's surplus, offset by
-        # row so that one search serves every row.
-        first = np.searchsorted(r, r, side="left")
-        cd = np.cumsum(deficit) - deficit
-        start = cd - cd[first] + r * (2.0 * size + 4.0)
-        ce = np.cumsum(np.where(small, 0.0, ql - 1.0))
-        end = ce - (ce - np.where(small, 0.0, ql - 1.0))[first] + r * (2.0 * size + 4.0)
-        ls, ll = np.nonzero(small)[0], np.nonzero(~small)[0]
+        ls, ll = np.flatnonzero(small), np.flatnonzero(~small)
         if ls.size == 0 or ll.size == 0:
             break
-        pick = np.searchsorted(end[ll], start[ls], side="right")
-        # The last large item of the small item's row (its start may pass the row's surplus by
-        # rounding); a row without large items keeps its small ones for the close-out.
-        last = np.searchsorted(r[ll], r[ls], side="right") - 1
-        ok = (last >= 0) & (r[ll][np.maximum(last, 0)] == r[ls])
+        # Row-wise running sums over the unfinished buckets only (a round costs what is left):
+        # the start of each small item's deficit, the end of each large item's surplus.
+        head = np.flatnonzero(np.r_[True, r[1:] != r[:-1]])          # each row's first position
+        tail = np.r_[head[1:], r.size] - 1                           # and last
+        count = np.diff(np.r_[head, r.size])
+        deficit = np.where(small, 1.0 - ql, 0.0)
+        surplus = np.where(small, 0.0, ql - 1.0)
+        cd, ce = np.cumsum(deficit), np.cumsum(surplus)
+        base = np.repeat(np.arange(head.size) * (2.0 * size + 4.0), count)  # rows apart
+        start = (cd - deficit - np.repeat(cd[head] - deficit[head], count) + base)[ls]
+        end = (ce - np.repeat(ce[head] - surplus[head], count) + base)[ll]
+        # Each small item's large partner: the first whose end passes its start (one merge of
+        # two sorted runs; ends first, so an end equal to a start counts as passed).
+        order = np.argsort(np.r_[end, start], kind="stable")
+        passed = np.cumsum(order < ll.size)
+        pick = np.empty(ls.size, np.int64)
+        pick[order[order >= ll.size] - ll.size] = passed[order >= ll.size]
+        # Clamped to the row's last large item (a start may pass the row's surplus by rounding);
+        # a row without large items keeps its small ones for the close-out.
+        n_large = np.cumsum(~small)
+        row_of = np.repeat(np.arange(head.size), count)[ls]
+        last = n_large[tail[row_of]] - 1
+        ok = n_large[tail[row_of]] > n_large[head[row_of]] - (~small[head[row_of]])
         if not ok.any():
             break
-        ls, pick = ls[ok], ll[np.minimum(pick, last)[ok]]
+        ls, pick = ls[ok], ll[np.minimum(pick[ok], last[ok])]
         af[live[ls]] = live[pick] % size
-        np.subtract.at(qf, live[pick], deficit[ls])
+        qf[live] = ql - np.bincount(pick, deficit[ls], minlength=live.size)
         keep = np.ones(live.size, bool)
         keep[ls] = False
         live = live[keep]
