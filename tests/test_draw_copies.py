@@ -16,21 +16,20 @@ CORNELL = ROOT / "scenes" / "cornell-box.yaml"
 
 
 def test_copies_only_where_the_image_spans_few_tiles():
-    assert draw_copies(64, 64, 64) == 4      # one 64 x 64 tile: four copies
-    assert draw_copies(100, 64, 64) == 2     # two tiles
-    assert draw_copies(128, 128, 64) == 1    # four tiles: drawn as before
+    assert draw_copies(64, 64, 64) == 2      # one 64 x 64 tile: two copies
+    assert draw_copies(100, 64, 64) == 1     # two tiles: drawn as before
+    assert draw_copies(128, 128, 64) == 1
     assert draw_copies(512, 512, 64) == 1
-    assert draw_copies(12, 10, 8) == 4
-    assert draw_copies(64, 64, 2) == 2       # never more copies than samples in a draw
-    assert draw_copies(32, 32, 1) == 1
+    assert draw_copies(12, 10, 8) == 2
+    assert draw_copies(64, 64, 1) == 1       # never more copies than samples in a draw
     assert draw_copies(60, 60, 64, max_size=100) == 1  # the copies must fit a texture
 
 
 def test_copies_give_the_image_of_one_draw(monkeypatch):
     p = prepare(CORNELL, resolution=(40, 24), feature_flags={"variance": True}, aovs=("albedo", "normal", "depth"))
-    assert p.renderer.copies == 4
+    assert p.renderer.copies == 2
     try:
-        # 9 passes: draws of 9 samples, so copy 0 takes 3 and the others 2 (uneven shares).
+        # 9 passes: one draw of 9 samples, copy 0 takes 5 and copy 1 takes 4 (uneven shares).
         copies = draw(p.renderer, 9, seed=5)
     finally:
         p.renderer.release()
