@@ -56,10 +56,12 @@ class DrawCopies:
     def begin(self) -> None:
         """Before a pass's draws: the scratch targets, cleared, take them."""
         self.fbo.use()
+        self.ctx.scissor = (0, 0, self.width * self.copies, self.height)
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
 
     def end(self, target: moderngl.Framebuffer) -> None:
         """After them: the copies added into ``target`` (blending ONE, ONE is on)."""
+        self.ctx.scissor = None
         target.use()
         self.program["u_width"].value = self.width  # the program is shared by every renderer
         self.program["u_count"].value = self.copies

@@ -259,20 +259,8 @@ class Renderer:
                     self._uniform("u_rand_stride", w * h)
                     # GL rows count from the bottom; tiles are given from the top.
                     ctx.scissor = (x0, self.height - y0 - h, w, h)
-                    if self.copy_targets is not None:  # one tile: the copies' full width
-                        self.copy_targets.begin()
-                        ctx.scissor = (0, 0, self.width * self.copies, self.height)
-                    if self.paths is not None:
-                        self.paths.reset_count()
-                    self.vao.render(moderngl.TRIANGLES, vertices=3)
+                    self._draw(n)
                     draws += 1
-                    if self.paths is not None:  # long paths: further draws until all have ended
-                        self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
-                                          lambda v: self._uniform("u_continue", v),
-                                          limit=n * (self.features.bounces + 2))
-                    if self.copy_targets is not None:
-                        ctx.scissor = None
-                        self.copy_targets.end(self.fbo)
                 p += n
                 stopping = interrupt is not None and interrupt(p)
                 if p % chunk == 0 or p == stop or stopping:
@@ -284,6 +272,21 @@ class Renderer:
         finally:
             ctx.scissor = None
             ctx.disable(moderngl.BLEND)
+
+    def _draw(self, n: int) -> None:
+        """The draw of ``n`` samples per pixel (scissored to its tile), continuation draws for
+        long paths, and small images' copies added up (draw_copies.py; one tile then)."""
+        if self.copy_targets is not None:
+            self.copy_targets.begin()  # the copies' full width
+        if self.paths is not None:
+            self.paths.reset_count()
+        self.vao.render(moderngl.TRIANGLES, vertices=3)
+        if self.paths is not None:  # long paths: further draws until all have ended
+            self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
+                              lambda v: self._uniform("u_continue", v),
+                              limit=n * (self.features.bounces + 2))
+        if self.copy_targets is not None:
+            self.copy_targets.end(self.fbo)
 
     def result(self, total: np.ndarray, spp: int, seed: int, seconds: float,
                random_seconds: float) -> RenderResult:
