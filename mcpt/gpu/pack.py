@@ -8,7 +8,7 @@ reads it:
     tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
     nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
     lights     mcpt/shading/lights.py    <-> glsl/lights.glsl (+ light_punctual)
-    env_texels, env_cdf  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
+    env_texels, env_alias  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
     materials  mcpt/shading/materials.py <-> glsl/materials.glsl
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
