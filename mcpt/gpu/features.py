@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
+from ..scene.animation import camera_moves
 from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.roulette import RR_START
@@ -107,6 +108,7 @@ class Uses:
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
+    camera_moves: bool = False      # issue #26: an animated camera, its eye a uniform (camera.glsl)
 
     def everything(self) -> Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
@@ -314,6 +316,7 @@ class Features:
             "MCPT_ONE_SIDED": b(u.one_sided),
             "MCPT_NORMAL_MAPS": b(u.normal_maps),
             "MCPT_OPACITY": b(u.opacity),
+            "MCPT_CAMERA_MOVES": b(u.camera_moves),
             "MCPT_FILTER": u.pixel_filter,
             "MCPT_THIN_LENS": b(u.thin_lens),
             "MCPT_ORTHO": b(u.orthographic),
@@ -393,4 +396,6 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
                       tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
+        f = f.replace(camera_moves=True)
     return f

@@ -116,7 +116,7 @@ def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
     table; positions relative to the camera like the triangles."""
     lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
     radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
-    origin = np.asarray(scene.camera.position, np.float64)
+    origin = np.asarray(scene.origin, np.float64)
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
     return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
                         env_power(scene.environment, envmap, radius), envmap)
@@ -138,7 +138,7 @@ def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:
     if need_uvs and mesh.uvs is None:
         log.warning("%s: material %r has an albedo texture but the mesh has no UVs; "
                     "it reads texture coordinate (0, 0)", spec.file, spec.material)
-    part = _rebased(mesh, ids, np.asarray(scene.camera.position, np.float64))
+    part = _rebased(mesh, ids, np.asarray(scene.origin, np.float64))
     if resolver.needs_tangents(spec) and mesh.uvs is not None:
         part.tangents = vertex_tangents(mesh.vertices, mesh.faces, mesh.uvs, mesh.normals)[mesh.faces]
     return part
