@@ -22,6 +22,7 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 #define MAT_PLASTIC 3
 #define MAT_FLAG_SMOOTH 1u
 #define MAT_FLAG_ONE_SIDED 8u   // bits 1-2: the conductor's Fresnel mode (bsdf_conductor.glsl)
+// bits 4-5: the microfacet distribution and masking term (bsdf_microfacet.glsl)
 
 struct Material {
     vec3 albedo; int type; vec3 emission; float light_pdf_area;
@@ -79,6 +80,10 @@ struct BsdfSample {
 #endif
 #if MCPT_MICROFACET
 #include "bsdf_ggx.glsl"
+#if MCPT_BECKMANN
+#include "bsdf_beckmann.glsl"
+#endif
+#include "bsdf_microfacet.glsl"
 #endif
 #if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR
 #include "bsdf_fresnel.glsl"

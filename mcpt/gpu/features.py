@@ -12,7 +12,8 @@ what a user renders with. Fields are named alike in :func:`derive`, :func:`for_w
 program as compiled through ``Features``' properties (``features.bvh``, ``features.nee``, ...).
 
 Materials: each type compiles its own ``glsl/bsdf_<type>.glsl`` only when the scene uses it; the
-GGX microfacet code only when some conductor is rough; texture and vertex-normal lookups (and
+GGX microfacet code only when some conductor is rough (Beckmann and the separable masking term
+only when some rough material chooses them: mcpt/shading/microfacet.py); texture and vertex-normal lookups (and
 their UV / normal buffers) only when some material has an ``albedo_texture`` / ``smooth_normals``;
 the complex (exact conductor) Fresnel and its extra material texel only when some conductor uses
 ``fresnel: conductor``; the back-side test only when some material is one-sided.
@@ -23,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
+from ..shading import microfacet
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
 from ..shapes.geometry import shared_vertices
@@ -80,6 +82,8 @@ class Uses:
     diffuse: bool = True            # Lambertian material present
     conductor: bool = False         # conductor (mirror or rough metal) present
     microfacet: bool = False        # some conductor is rough: GGX code
+    beckmann: bool = False          # some rough material is Beckmann (mcpt/shading/microfacet.py)
+    separable_masking: bool = False  # some rough material has masking: separable
     dielectric: bool = False        # smooth glass present
     absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
@@ -98,7 +102,7 @@ class Uses:
         return dataclasses.replace(
             self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
             dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
-            fresnel_complex=True, one_sided=True)
+            fresnel_complex=True, one_sided=True, beckmann=True, separable_masking=True)
 
     @property
     def delta(self) -> bool:
@@ -276,6 +280,8 @@ class Features:
             "MCPT_MAT_DIFFUSE": b(u.diffuse),
             "MCPT_MAT_CONDUCTOR": b(u.conductor),
             "MCPT_MICROFACET": b(u.conductor and u.microfacet),
+            "MCPT_BECKMANN": b(u.microfacet and u.beckmann),
+            "MCPT_SEPARABLE_MASKING": b(u.microfacet and u.separable_masking),
             "MCPT_MAT_DIELECTRIC": b(u.dielectric),
             "MCPT_ABSORPTION": b(u.dielectric and u.absorption),
             "MCPT_MAT_PLASTIC": b(u.plastic),
@@ -345,6 +351,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
+    f = f.replace(**microfacet.uses(mt, ids))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

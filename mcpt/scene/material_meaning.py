@@ -62,6 +62,8 @@ class MaterialRow:
     eta: RGB = (1.0, 1.0, 1.0)
     k: RGB = BLACK
     one_sided: bool = False
+    distribution: str = "ggx"
+    masking: str = "height_correlated"
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -117,7 +119,8 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     emission = tuple(ym.emission) if ym.emission is not None else ke
     return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
-                       one_sided=not ym.two_sided, **conductor_columns(ym))
+                       one_sided=not ym.two_sided, distribution=ym.distribution, masking=ym.masking,
+                       **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -187,7 +190,9 @@ class MaterialResolver:
                              texture=col("texture", np.int64), smooth=col("smooth", bool),
                              sigma_a=rgb("sigma_a"), fresnel=tuple(r.fresnel for r in rows),
                              spec=rgb("spec"), eta=rgb("eta"), k=rgb("k"),
-                             one_sided=col("one_sided", bool))
+                             one_sided=col("one_sided", bool),
+                             distribution=tuple(r.distribution for r in rows),
+                             masking=tuple(r.masking for r in rows))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""

@@ -90,20 +90,22 @@ class Absorption(StrictModel):
 MATERIAL_KEYS = {
     "diffuse": ("albedo", "albedo_texture", "two_sided"),
     "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
-                  "specular_reflectance", "two_sided"),
+                  "specular_reflectance", "two_sided", "distribution", "masking"),
     "dielectric": ("ior", "absorption"),
     "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
-             "metal", "specular_reflectance", "two_sided")
+             "metal", "specular_reflectance", "two_sided", "distribution", "masking")
 
 
 class Material(StrictModel):
     """A surface material (GLSL: glsl/bsdf_<type>.glsl; table: mcpt/shading/materials.py).
 
     * ``diffuse``: Lambertian, reflectance ``albedo`` (or ``albedo_texture``).
-    * ``conductor``: metal. ``roughness`` is the GGX alpha: 0 (below 0.001) is a perfect mirror,
-      larger values a rough metal (Smith height-correlated masking, visible-normal sampling). The
+    * ``conductor``: metal. ``roughness`` is the microfacet alpha: 0 (below 0.001) is a perfect
+      mirror, larger values a rough metal of ``distribution`` ``ggx`` (default, visible-normal
+      sampling) or ``beckmann``, with Smith ``masking`` ``height_correlated`` (default) or
+      ``separable`` (Mitsuba 3's). The
       Fresnel factor (``fresnel``): ``schlick`` (default) with ``albedo`` the reflectance at normal
       incidence; ``none``, F = 1 at every angle (Mitsuba's ``material: none``, the reference
       mirror); ``conductor``, the exact unpolarised Fresnel of a complex index ``eta`` + i ``k``
@@ -130,7 +132,12 @@ class Material(StrictModel):
     albedo_texture: Annotated[ImageTexture | None, BeforeValidator(_texture_shorthand)] = None
     """An image as the albedo (a file name or ``{file, wrap, filter}``); excludes ``albedo``."""
     roughness: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
-    """Conductor: GGX alpha in [0, 1]; 0 = mirror."""
+    """Conductor: the microfacet alpha in [0, 1]; 0 = mirror."""
+    distribution: Literal["ggx", "beckmann"] = "ggx"
+    """Rough conductor: the microfacet distribution (mcpt/shading/microfacet.py)."""
+    masking: Literal["height_correlated", "separable"] = "height_correlated"
+    """Rough conductor: the Smith masking-shadowing term, height-correlated (Heitz 2014) or
+    separable G1(wo) G1(wi) (Mitsuba 3's; the Mitsuba reader picks it)."""
     ior: Annotated[float, Field(ge=1.0, le=4.0)] = 1.5
     """Dielectric, plastic: index of refraction (the outside is air, index 1)."""
     absorption: Absorption | None = None

@@ -10,7 +10,8 @@
     2: alpha, ior, texture, flags   GGX alpha (conductor), index of refraction (dielectric,
                                     plastic), albedo texture id (0xffffffff: none), flags:
                                     bit 0 smooth normals, bits 1-2 conductor Fresnel mode
-                                    (0 Schlick, 1 none, 2 complex), bit 3 one-sided
+                                    (0 Schlick, 1 none, 2 complex), bit 3 one-sided, bits 4-5
+                                    Beckmann, separable masking (mcpt/shading/microfacet.py)
     3: sigma_a.rgb, fdr_int         absorption coefficient per unit length (dielectric);
                                     conductor: Schlick's lobe scale (specular_reflectance), or
                                     eta (complex Fresnel); the coat's internal diffuse
@@ -28,6 +29,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+
+from . import microfacet
 
 TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
 
@@ -90,13 +93,16 @@ class MaterialTable:
     eta: np.ndarray = None      # (M, 3) conductor complex index, real part (fresnel: conductor)
     k: np.ndarray = None        # (M, 3) conductor complex index, imaginary part
     one_sided: np.ndarray = None  # (M,) bool: the back side is black
+    distribution: tuple = None  # (M,) rough materials: "ggx" or "beckmann" (microfacet.py)
+    masking: tuple = None       # (M,) rough materials: "height_correlated" or "separable"
 
     def __post_init__(self):
         m = len(self.names)
         defaults = {"alpha": np.zeros(m), "ior": np.full(m, 1.5), "texture": np.full(m, -1, np.int64),
                     "smooth": np.zeros(m, bool), "sigma_a": np.zeros((m, 3)),
                     "fresnel": ("schlick",) * m, "spec": np.ones((m, 3)), "eta": np.ones((m, 3)),
-                    "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool)}
+                    "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool),
+                    "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -104,8 +110,12 @@ class MaterialTable:
     def used(self, ids) -> list[int]:
         return sorted({int(i) for i in np.unique(ids)})
 
+    def is_rough(self, i: int) -> bool:
+        """Whether material ``i`` is a microfacet surface (a conductor with alpha >= MIN_ALPHA)."""
+        return self.types[i] == "conductor" and self.alpha[i] >= MIN_ALPHA
+
     def rough(self, ids) -> bool:
-        return any(self.types[i] == "conductor" and self.alpha[i] >= MIN_ALPHA for i in self.used(ids))
+        return any(self.is_rough(i) for i in self.used(ids))
 
     def absorbing(self, ids) -> bool:
         return any(self.types[i] == "dielectric" and self.sigma_a[i].max() > 0 for i in self.used(ids))
@@ -138,8 +148,9 @@ class MaterialTable:
             conductor = np.array([t == "conductor" for t in self.types], bool)
             mode = np.array([FRESNEL[f] if c else 0 for f, c in zip(self.fresnel, conductor)], np.uint32)
             one = self.one_sided & np.array([t != "dielectric" for t in self.types], bool)
+            mf = [microfacet.flags(d, g) for d, g in zip(self.distribution, self.masking)]
             out[:m, 2, 3] = (np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0) | (mode << FRESNEL_SHIFT)
-                             | np.where(one, FLAG_ONE_SIDED, 0)).astype(np.uint32)
+                             | np.where(one, FLAG_ONE_SIDED, 0) | np.asarray(mf, np.int64)).astype(np.uint32)
             # Texel 3 rgb per type: sigma_a (dielectric), Schlick's lobe scale or eta (conductor).
             third = np.where(conductor[:, None], np.where((mode == FRESNEL["conductor"])[:, None],
                                                           self.eta, self.spec), self.sigma_a)

@@ -1,7 +1,7 @@
 """Mitsuba 3 BSDFs -> mcpt materials (the same mapping a YAML ``materials:`` entry gives).
 
-Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX; Beckmann approximated by GGX of
-the same alpha with a warning), ``dielectric``, ``plastic``, ``twosided`` (one BSDF for both
+Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX or Beckmann, with Mitsuba 3's
+separable Smith masking term), ``dielectric``, ``plastic``, ``twosided`` (one BSDF for both
 sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_sided: false``;
 ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
 (diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` texture.
@@ -128,8 +128,10 @@ def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
     return out
 
 
-def _rough(bsdf: Node, props: dict[str, Node]) -> float:
-    """The GGX alpha of a roughconductor (Beckmann approximated with a warning)."""
+def _rough(bsdf: Node, props: dict[str, Node]) -> dict:
+    """The microfacet keys of a rough BSDF: alpha, Mitsuba's distribution (Beckmann by default) and
+    its separable masking term G1(wi) G1(wo) (include/mitsuba/render/microfacet.h). ``sample_visible``
+    changes only how directions are drawn (the variance), not the image: accepted and ignored."""
     dist = V.as_string(props["distribution"]) if "distribution" in props else "beckmann"
     if dist not in ("ggx", "beckmann"):
         raise props["distribution"].error(f"distribution {dist!r}: expected ggx or beckmann")
@@ -142,12 +144,9 @@ def _rough(bsdf: Node, props: dict[str, Node]) -> float:
         alpha = au
     else:
         alpha = V.as_float(props["alpha"]) if "alpha" in props else 0.1
-    if dist == "beckmann":
-        log.warning("%s:%d: %s: the Beckmann distribution is approximated by GGX of the same alpha "
-                    "%.4g (mcpt has GGX only)", bsdf.file, bsdf.line, bsdf.label, alpha)
     if not 0.0 <= alpha <= 1.0:
         raise (props.get("alpha") or bsdf).error(f"alpha {alpha} out of [0, 1]")
-    return alpha
+    return {"roughness": alpha, "distribution": dist, "masking": "separable"}
 
 
 def _linear_plastic(out: dict, bsdf: Node) -> dict:
@@ -182,7 +181,7 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
     elif kind in ("conductor", "roughconductor"):
         out = _conductor(bsdf, props)
         if kind == "roughconductor":
-            out["roughness"] = _rough(bsdf, props)
+            out.update(_rough(bsdf, props))
     elif kind == "dielectric":
         _no(props, bsdf, "specular_reflectance", "specular_transmittance")
         ior = _relative_ior(props, bsdf, "bk7")
