@@ -16,7 +16,7 @@ float beckmann_D(vec3 h, float a) {
 
 float beckmann_lambda(vec3 w, float a) {
     float s = sqrt(w.x * w.x + w.y * w.y);
-    float b = w.z / (a * max(s, 1e-30));
+    float b = abs(w.z) / (a * max(s, 1e-30));  // |w.z|: refracted directions point down
     if (b >= 1.6) return 0.0;
     return (1.0 - 1.259 * b + 0.396 * b * b) / (3.535 * b + 2.181 * b * b);
 }

@@ -84,6 +84,7 @@ class Uses:
     microfacet: bool = False        # some conductor is rough: GGX code
     beckmann: bool = False          # some rough material is Beckmann (mcpt/shading/microfacet.py)
     separable_masking: bool = False  # some rough material has masking: separable
+    rough_dielectric: bool = False  # rough glass present (mcpt/shading/roughdielectric.py)
     dielectric: bool = False        # smooth glass present
     absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
@@ -102,12 +103,18 @@ class Uses:
         return dataclasses.replace(
             self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
             dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
-            fresnel_complex=True, one_sided=True, beckmann=True, separable_masking=True)
+            fresnel_complex=True, one_sided=True, beckmann=True, separable_masking=True,
+            rough_dielectric=True)
 
     @property
     def delta(self) -> bool:
         """Some material has a specular (delta) lobe: light found through it is not MIS-weighted."""
-        return self.conductor or self.dielectric or self.plastic
+        return self.conductor or self.dielectric or self.plastic or self.rough_dielectric
+
+    @property
+    def transmission(self) -> bool:
+        """Some material refracts: offsets to the other side, eta-corrected roulette."""
+        return self.dielectric or self.rough_dielectric
 
     @property
     def material_texels(self) -> int:
@@ -116,7 +123,7 @@ class Uses:
         if self.conductor and self.fresnel_complex:
             return 5
         extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
-                 or self.one_sided)
+                 or self.one_sided or self.rough_dielectric)
         return 4 if extra else 2
 
     @property
@@ -279,12 +286,14 @@ class Features:
             "MCPT_VERT_COUNT": len(u.vert_addr) if written else 0,
             "MCPT_MAT_DIFFUSE": b(u.diffuse),
             "MCPT_MAT_CONDUCTOR": b(u.conductor),
-            "MCPT_MICROFACET": b(u.conductor and u.microfacet),
+            "MCPT_MICROFACET": b(u.microfacet),
             "MCPT_BECKMANN": b(u.microfacet and u.beckmann),
             "MCPT_SEPARABLE_MASKING": b(u.microfacet and u.separable_masking),
             "MCPT_MAT_DIELECTRIC": b(u.dielectric),
             "MCPT_ABSORPTION": b(u.dielectric and u.absorption),
             "MCPT_MAT_PLASTIC": b(u.plastic),
+            "MCPT_MAT_ROUGH_DIELECTRIC": b(u.rough_dielectric),
+            "MCPT_TRANSMISSION": b(u.transmission),
             "MCPT_DELTA": b(u.delta),
             "MCPT_MAT_TEXELS": u.material_texels,
             "MCPT_TEXTURES": b(u.textures),

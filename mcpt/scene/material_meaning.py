@@ -96,7 +96,7 @@ def albedo_from_file(ym: Material | None) -> bool:
     """Whether the mesh file's Kd / map_Kd gives this YAML material its albedo (it is silent on it)."""
     if ym is None:
         return True
-    if ym.albedo is not None or ym.albedo_texture is not None or ym.type == "dielectric":
+    if ym.albedo is not None or ym.albedo_texture is not None or ym.type in ("dielectric", "roughdielectric"):
         return False
     return ym.type != "conductor" or ym.fresnel_mode == "schlick"
 
@@ -110,7 +110,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     """The scene's material ``ym``, the file's reflectance ``kd`` and emission ``ke`` where it is
     silent."""
     albedo = tuple(ym.albedo) if ym.albedo is not None else kd
-    if ym.type == "dielectric":
+    if ym.type in ("dielectric", "roughdielectric"):
         albedo = (1.0, 1.0, 1.0)  # unused: glass has no albedo
     elif ym.type == "conductor" and ym.fresnel_mode != "schlick":
         # The albedo slot holds the lobe scale (specular_reflectance, texturable).

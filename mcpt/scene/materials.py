@@ -17,6 +17,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from ..shading.metals import METALS
+from ..shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
 
@@ -93,6 +94,7 @@ MATERIAL_KEYS = {
                   "specular_reflectance", "two_sided", "distribution", "masking"),
     "dielectric": ("ior", "absorption"),
     "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
+    "roughdielectric": ("ior", "roughness", "distribution", "masking"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
              "metal", "specular_reflectance", "two_sided", "distribution", "masking")
@@ -116,6 +118,9 @@ class Material(StrictModel):
     * ``plastic``: a Lambertian base (``albedo``) under a smooth dielectric coat of index ``ior``:
       a mirror-like reflection (Fresnel) plus diffuse light that got through the coat, including
       the light the coat reflects back onto the base. A white plastic reflects all light.
+    * ``roughdielectric``: frosted glass, a rough interface of index ``ior`` (Walter et al. 2007,
+      Mitsuba 3's ``roughdielectric``): ``roughness`` (alpha in [0.001, 1]), ``distribution``,
+      ``masking`` as for a rough conductor (glsl/bsdf_roughdielectric.glsl).
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -124,19 +129,19 @@ class Material(StrictModel):
     two sides by nature.
     """
 
-    type: Literal["diffuse", "conductor", "dielectric", "plastic"] = "diffuse"
-    """Material model: diffuse, conductor, dielectric or plastic."""
+    type: Literal["diffuse", "conductor", "dielectric", "plastic", "roughdielectric"] = "diffuse"
+    """Material model: diffuse, conductor, dielectric, plastic or roughdielectric."""
     albedo: Albedo | None = None
     """Linear RGB reflectance in [0, 1]; None = the mesh's MTL ``Kd``, else 0.8 grey. For a
     conductor: the reflectance at normal incidence."""
     albedo_texture: Annotated[ImageTexture | None, BeforeValidator(_texture_shorthand)] = None
     """An image as the albedo (a file name or ``{file, wrap, filter}``); excludes ``albedo``."""
     roughness: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
-    """Conductor: the microfacet alpha in [0, 1]; 0 = mirror."""
+    """Conductor: the microfacet alpha in [0, 1], 0 = mirror; roughdielectric: [0.001, 1]."""
     distribution: Literal["ggx", "beckmann"] = "ggx"
-    """Rough conductor: the microfacet distribution (mcpt/shading/microfacet.py)."""
+    """Rough conductor or dielectric: the microfacet distribution (mcpt/shading/microfacet.py)."""
     masking: Literal["height_correlated", "separable"] = "height_correlated"
-    """Rough conductor: the Smith masking-shadowing term, height-correlated (Heitz 2014) or
+    """Rough conductor or dielectric: the Smith masking-shadowing term, height-correlated (Heitz 2014) or
     separable G1(wo) G1(wi) (Mitsuba 3's; the Mitsuba reader picks it)."""
     ior: Annotated[float, Field(ge=1.0, le=4.0)] = 1.5
     """Dielectric, plastic: index of refraction (the outside is air, index 1)."""
@@ -181,6 +186,13 @@ class Material(StrictModel):
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
         if self.type == "conductor":
             self._check_fresnel()
+        if self.type in ("dielectric", "roughdielectric") and self.ior == 1.0:
+            raise FieldError(("ior",), "ior 1 is no interface (the same index on both sides: the "
+                                       "surface would be invisible); a dielectric needs ior > 1")
+        if self.type == "roughdielectric" and self.roughness < ROUGH_GLASS_MIN_ALPHA:
+            raise FieldError(("roughness",), f"a roughdielectric needs roughness (alpha) in "
+                                             f"[{ROUGH_GLASS_MIN_ALPHA:g}, 1], got {self.roughness:g} "
+                                             f"(smooth glass is type: dielectric)")
         return self
 
     @property

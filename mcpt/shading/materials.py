@@ -32,7 +32,9 @@ import numpy as np
 
 from . import microfacet
 
-TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
+TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4}
+#: Glass has two sides by nature: never one-sided.
+TWO_SIDED_TYPES = ("dielectric", "roughdielectric")
 
 FLAG_SMOOTH_NORMALS = 1
 FRESNEL = {"schlick": 0, "none": 1, "conductor": 2}
@@ -83,7 +85,7 @@ class MaterialTable:
     types: tuple[str, ...]
     albedo: np.ndarray          # (M, 3) linear RGB reflectance
     emission: np.ndarray        # (M, 3) emitted radiance, front side only
-    alpha: np.ndarray = None    # (M,) GGX alpha (conductor; 0: mirror)
+    alpha: np.ndarray = None    # (M,) microfacet alpha (conductor, 0: mirror; rough dielectric)
     ior: np.ndarray = None      # (M,) index of refraction (dielectric, plastic)
     texture: np.ndarray = None  # (M,) albedo texture id, -1: none
     smooth: np.ndarray = None   # (M,) bool: shade with vertex normals
@@ -111,8 +113,9 @@ class MaterialTable:
         return sorted({int(i) for i in np.unique(ids)})
 
     def is_rough(self, i: int) -> bool:
-        """Whether material ``i`` is a microfacet surface (a conductor with alpha >= MIN_ALPHA)."""
-        return self.types[i] == "conductor" and self.alpha[i] >= MIN_ALPHA
+        """Whether material ``i`` is a microfacet surface (alpha >= MIN_ALPHA: a rough conductor;
+        a rough dielectric always is)."""
+        return self.types[i] in ("conductor", "roughdielectric") and self.alpha[i] >= MIN_ALPHA
 
     def rough(self, ids) -> bool:
         return any(self.is_rough(i) for i in self.used(ids))
@@ -130,7 +133,7 @@ class MaterialTable:
         return any(self.types[i] == "conductor" and self.fresnel[i] == "conductor" for i in self.used(ids))
 
     def one_sided_used(self, ids) -> bool:
-        return any(bool(self.one_sided[i]) and self.types[i] != "dielectric" for i in self.used(ids))
+        return any(bool(self.one_sided[i]) and self.types[i] not in TWO_SIDED_TYPES for i in self.used(ids))
 
     def pack(self, light_pdf_area: np.ndarray, texels: int = 2) -> np.ndarray:
         m = len(self.names)
@@ -147,7 +150,7 @@ class MaterialTable:
             out[:m, 2, 2] = np.where(self.texture >= 0, self.texture, NO_TEXTURE).astype(np.uint32)
             conductor = np.array([t == "conductor" for t in self.types], bool)
             mode = np.array([FRESNEL[f] if c else 0 for f, c in zip(self.fresnel, conductor)], np.uint32)
-            one = self.one_sided & np.array([t != "dielectric" for t in self.types], bool)
+            one = self.one_sided & np.array([t not in TWO_SIDED_TYPES for t in self.types], bool)
             mf = [microfacet.flags(d, g) for d, g in zip(self.distribution, self.masking)]
             out[:m, 2, 3] = (np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0) | (mode << FRESNEL_SHIFT)
                              | np.where(one, FLAG_ONE_SIDED, 0) | np.asarray(mf, np.int64)).astype(np.uint32)

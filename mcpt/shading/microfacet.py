@@ -25,9 +25,13 @@ def flags(distribution: str, masking: str) -> int:
 
 
 def uses(table, ids) -> dict[str, bool]:
-    """The features.Uses fields the used rough materials need: Beckmann code, the separable term."""
-    rough = [i for i in table.used(ids) if table.is_rough(i)]
-    return {"beckmann": any(table.distribution[i] == "beckmann" for i in rough),
+    """The features.Uses fields the used rough materials need: the microfacet code (a rough
+    conductor or a rough dielectric), rough glass, Beckmann code, the separable term."""
+    used = table.used(ids)
+    rough = [i for i in used if table.is_rough(i)]
+    return {"microfacet": bool(rough),
+            "rough_dielectric": any(table.types[i] == "roughdielectric" for i in used),
+            "beckmann": any(table.distribution[i] == "beckmann" for i in rough),
             "separable_masking": any(table.masking[i] == "separable" for i in rough)}
 
 
@@ -50,7 +54,7 @@ def ggx_lambda(w: np.ndarray, a: float) -> np.ndarray:
 
 def beckmann_lambda(w: np.ndarray, a: float) -> np.ndarray:
     """Walter et al. 2007's rational fit (eq. 27), which Mitsuba 3 evaluates."""
-    b = w[..., 2] / (a * np.maximum(np.hypot(w[..., 0], w[..., 1]), 1e-300))
+    b = np.abs(w[..., 2]) / (a * np.maximum(np.hypot(w[..., 0], w[..., 1]), 1e-300))
     c = np.minimum(b, 1.6)  # the fit is 0 from b = 1.6 on (normal incidence: b = inf)
     return np.where(b >= 1.6, 0.0, (1.0 - 1.259 * c + 0.396 * c * c) / (3.535 * c + 2.181 * c * c))
 

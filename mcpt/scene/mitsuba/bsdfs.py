@@ -1,10 +1,11 @@
 """Mitsuba 3 BSDFs -> mcpt materials (the same mapping a YAML ``materials:`` entry gives).
 
 Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX or Beckmann, with Mitsuba 3's
-separable Smith masking term), ``dielectric``, ``plastic``, ``twosided`` (one BSDF for both
-sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_sided: false``;
-``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
-(diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` texture.
+separable Smith masking term), ``dielectric``, ``roughdielectric`` (likewise), ``plastic``,
+``twosided`` (one BSDF for both sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it
+becomes ``two_sided: false``; ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``,
+``<spectrum>``, a number, or (diffuse reflectance, plastic diffuse_reflectance) a ``bitmap``
+texture.
 """
 
 from __future__ import annotations
@@ -13,13 +14,14 @@ import logging
 
 from ...shading.materials import fdr_internal
 from ...shading.metals import METALS
+from ...shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from ..fields import TEXTURE_SUFFIXES
 from . import values as V
 from .xmltree import Node, deref
 
 log = logging.getLogger("mcpt")
 
-SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided")
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "plastic", "twosided")
 
 #: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
 IOR = {"vacuum": 1.0, "helium": 1.00004, "hydrogen": 1.00013, "air": 1.000277,
@@ -182,13 +184,19 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
         out = _conductor(bsdf, props)
         if kind == "roughconductor":
             out.update(_rough(bsdf, props))
-    elif kind == "dielectric":
+    elif kind in ("dielectric", "roughdielectric"):
         _no(props, bsdf, "specular_reflectance", "specular_transmittance")
         ior = _relative_ior(props, bsdf, "bk7")
-        if not 1.0 <= ior <= 4.0:
-            raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range [1, 4] (the denser medium "
-                             "must be inside)")
-        return {"type": "dielectric", "ior": ior}
+        if not 1.0 < ior <= 4.0:
+            raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the denser medium "
+                             "must be inside; 1 is no interface)")
+        if kind == "dielectric":
+            return {"type": "dielectric", "ior": ior}
+        rough = _rough(bsdf, props)
+        if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
+            raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least "
+                                                     f"rough-glass alpha {ROUGH_GLASS_MIN_ALPHA:g} (use a dielectric)")
+        return {"type": "roughdielectric", "ior": ior, **rough}
     elif kind == "plastic":
         _no(props, bsdf, "specular_reflectance")
         ior = _relative_ior(props, bsdf, "polypropylene")
