@@ -20,7 +20,7 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 #define MAT_CONDUCTOR 1
 #define MAT_DIELECTRIC 2
 #define MAT_PLASTIC 3
-// 4: MAT_ROUGH_DIELECTRIC (bsdf_roughdielectric.glsl)
+// 4: MAT_ROUGH_DIELECTRIC (bsdf_roughdielectric.glsl), 5: MAT_THIN_DIELECTRIC (bsdf_thindielectric.glsl)
 #define MAT_FLAG_SMOOTH 1u
 #define MAT_FLAG_ONE_SIDED 8u   // bits 1-2: the conductor's Fresnel mode (bsdf_conductor.glsl)
 // bits 4-5: the microfacet distribution and masking term (bsdf_microfacet.glsl)
@@ -86,7 +86,7 @@ struct BsdfSample {
 #endif
 #include "bsdf_microfacet.glsl"
 #endif
-#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR || MCPT_MAT_ROUGH_DIELECTRIC
+#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR || MCPT_MAT_ROUGH_DIELECTRIC || MCPT_MAT_THIN_DIELECTRIC
 #include "bsdf_fresnel.glsl"
 #endif
 #if MCPT_MAT_CONDUCTOR
@@ -100,6 +100,9 @@ struct BsdfSample {
 #endif
 #if MCPT_MAT_ROUGH_DIELECTRIC
 #include "bsdf_roughdielectric.glsl"
+#endif
+#if MCPT_MAT_THIN_DIELECTRIC
+#include "bsdf_thindielectric.glsl"
 #endif
 
 // The material as seen from the side the path arrives on (`front`: the outside). A rough
@@ -142,6 +145,9 @@ bool bsdf_has_smooth(Material m) {
 #if MCPT_MAT_DIELECTRIC
     if (m.type == MAT_DIELECTRIC) return false;
 #endif
+#if MCPT_MAT_THIN_DIELECTRIC
+    if (m.type == MAT_THIN_DIELECTRIC) return false;
+#endif
     return true;
 }
 
@@ -160,6 +166,9 @@ vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
 #endif
 #if MCPT_MAT_ROUGH_DIELECTRIC
     if (m.type == MAT_ROUGH_DIELECTRIC) return roughdielectric_eval(m, n, wo, wi, false, pdf);
+#endif
+#if MCPT_MAT_THIN_DIELECTRIC
+    if (m.type == MAT_THIN_DIELECTRIC) { pdf = 0.0; return vec3(0.0); }
 #endif
 #if MCPT_MAT_DIFFUSE
     pdf = diffuse_pdf(n, wi);
@@ -188,6 +197,9 @@ bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec3 u, out BsdfSample
 #endif
 #if MCPT_MAT_ROUGH_DIELECTRIC
     if (m.type == MAT_ROUGH_DIELECTRIC) return roughdielectric_sample(m, n, wo, u, s);
+#endif
+#if MCPT_MAT_THIN_DIELECTRIC
+    if (m.type == MAT_THIN_DIELECTRIC) return thindielectric_sample(m, n, wo, u.x, s);
 #endif
 #if MCPT_MAT_DIFFUSE
     s.wi = sample_cosine(n, u.xy, s.pdf);

@@ -24,7 +24,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
-from ..shading import microfacet
+from ..shading import microfacet, thindielectric
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
 from ..shapes.geometry import shared_vertices
@@ -85,6 +85,7 @@ class Uses:
     beckmann: bool = False          # some rough material is Beckmann (mcpt/shading/microfacet.py)
     separable_masking: bool = False  # some rough material has masking: separable
     rough_dielectric: bool = False  # rough glass present (mcpt/shading/roughdielectric.py)
+    thin_dielectric: bool = False   # thin glass present (mcpt/shading/thindielectric.py)
     dielectric: bool = False        # smooth glass present
     absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
@@ -104,17 +105,17 @@ class Uses:
             self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
             dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True, beckmann=True, separable_masking=True,
-            rough_dielectric=True)
+            rough_dielectric=True, thin_dielectric=True)
 
     @property
     def delta(self) -> bool:
         """Some material has a specular (delta) lobe: light found through it is not MIS-weighted."""
-        return self.conductor or self.dielectric or self.plastic or self.rough_dielectric
+        return self.conductor or self.dielectric or self.plastic or self.rough_dielectric or self.thin_dielectric
 
     @property
     def transmission(self) -> bool:
         """Some material refracts: offsets to the other side, eta-corrected roulette."""
-        return self.dielectric or self.rough_dielectric
+        return self.dielectric or self.rough_dielectric or self.thin_dielectric
 
     @property
     def material_texels(self) -> int:
@@ -123,7 +124,7 @@ class Uses:
         if self.conductor and self.fresnel_complex:
             return 5
         extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
-                 or self.one_sided or self.rough_dielectric)
+                 or self.one_sided or self.rough_dielectric or self.thin_dielectric)
         return 4 if extra else 2
 
     @property
@@ -293,6 +294,7 @@ class Features:
             "MCPT_ABSORPTION": b(u.dielectric and u.absorption),
             "MCPT_MAT_PLASTIC": b(u.plastic),
             "MCPT_MAT_ROUGH_DIELECTRIC": b(u.rough_dielectric),
+            "MCPT_MAT_THIN_DIELECTRIC": b(u.thin_dielectric),
             "MCPT_TRANSMISSION": b(u.transmission),
             "MCPT_DELTA": b(u.delta),
             "MCPT_MAT_TEXELS": u.material_texels,
@@ -360,7 +362,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
-    f = f.replace(**microfacet.uses(mt, ids))
+    f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

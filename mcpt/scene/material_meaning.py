@@ -30,6 +30,7 @@ from .model import Mesh, Scene
 
 log = logging.getLogger("mcpt")
 
+GLASS = ("dielectric", "roughdielectric", "thindielectric")  # no albedo
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # when neither the YAML nor the mesh file gives one
 BLACK = (0.0, 0.0, 0.0)
 RGB = tuple[float, float, float]
@@ -96,7 +97,7 @@ def albedo_from_file(ym: Material | None) -> bool:
     """Whether the mesh file's Kd / map_Kd gives this YAML material its albedo (it is silent on it)."""
     if ym is None:
         return True
-    if ym.albedo is not None or ym.albedo_texture is not None or ym.type in ("dielectric", "roughdielectric"):
+    if ym.albedo is not None or ym.albedo_texture is not None or ym.type in GLASS:
         return False
     return ym.type != "conductor" or ym.fresnel_mode == "schlick"
 
@@ -110,7 +111,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     """The scene's material ``ym``, the file's reflectance ``kd`` and emission ``ke`` where it is
     silent."""
     albedo = tuple(ym.albedo) if ym.albedo is not None else kd
-    if ym.type in ("dielectric", "roughdielectric"):
+    if ym.type in GLASS:
         albedo = (1.0, 1.0, 1.0)  # unused: glass has no albedo
     elif ym.type == "conductor" and ym.fresnel_mode != "schlick":
         # The albedo slot holds the lobe scale (specular_reflectance, texturable).

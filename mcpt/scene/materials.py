@@ -95,6 +95,7 @@ MATERIAL_KEYS = {
     "dielectric": ("ior", "absorption"),
     "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
     "roughdielectric": ("ior", "roughness", "distribution", "masking"),
+    "thindielectric": ("ior",),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
              "metal", "specular_reflectance", "two_sided", "distribution", "masking")
@@ -121,6 +122,8 @@ class Material(StrictModel):
     * ``roughdielectric``: frosted glass, a rough interface of index ``ior`` (Walter et al. 2007,
       Mitsuba 3's ``roughdielectric``): ``roughness`` (alpha in [0.001, 1]), ``distribution``,
       ``masking`` as for a rough conductor (glsl/bsdf_roughdielectric.glsl).
+    * ``thindielectric``: a window pane of index ``ior`` (Mitsuba 3's ``thindielectric``): light
+      passes unrefracted or reflects, the pane's internal reflections summed.
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -129,8 +132,8 @@ class Material(StrictModel):
     two sides by nature.
     """
 
-    type: Literal["diffuse", "conductor", "dielectric", "plastic", "roughdielectric"] = "diffuse"
-    """Material model: diffuse, conductor, dielectric, plastic or roughdielectric."""
+    type: Literal["diffuse", "conductor", "dielectric", "plastic", "roughdielectric", "thindielectric"] = "diffuse"
+    """Material model: diffuse, conductor, dielectric, plastic, roughdielectric or thindielectric."""
     albedo: Albedo | None = None
     """Linear RGB reflectance in [0, 1]; None = the mesh's MTL ``Kd``, else 0.8 grey. For a
     conductor: the reflectance at normal incidence."""
@@ -186,7 +189,7 @@ class Material(StrictModel):
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
         if self.type == "conductor":
             self._check_fresnel()
-        if self.type in ("dielectric", "roughdielectric") and self.ior == 1.0:
+        if self.type in ("dielectric", "roughdielectric", "thindielectric") and self.ior == 1.0:
             raise FieldError(("ior",), "ior 1 is no interface (the same index on both sides: the "
                                        "surface would be invisible); a dielectric needs ior > 1")
         if self.type == "roughdielectric" and self.roughness < ROUGH_GLASS_MIN_ALPHA:

@@ -32,9 +32,9 @@ import numpy as np
 
 from . import microfacet
 
-TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4}
+TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5}
 #: Glass has two sides by nature: never one-sided.
-TWO_SIDED_TYPES = ("dielectric", "roughdielectric")
+TWO_SIDED_TYPES = ("dielectric", "roughdielectric", "thindielectric")
 
 FLAG_SMOOTH_NORMALS = 1
 FRESNEL = {"schlick": 0, "none": 1, "conductor": 2}

@@ -1,7 +1,7 @@
 """Mitsuba 3 BSDFs -> mcpt materials (the same mapping a YAML ``materials:`` entry gives).
 
 Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX or Beckmann, with Mitsuba 3's
-separable Smith masking term), ``dielectric``, ``roughdielectric`` (likewise), ``plastic``,
+separable Smith masking term), ``dielectric``, ``roughdielectric`` (likewise), ``thindielectric``, ``plastic``,
 ``twosided`` (one BSDF for both sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it
 becomes ``two_sided: false``; ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``,
 ``<spectrum>``, a number, or (diffuse reflectance, plastic diffuse_reflectance) a ``bitmap``
@@ -21,7 +21,8 @@ from .xmltree import Node, deref
 
 log = logging.getLogger("mcpt")
 
-SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "plastic", "twosided")
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "thindielectric",
+             "plastic", "twosided")
 
 #: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
 IOR = {"vacuum": 1.0, "helium": 1.00004, "hydrogen": 1.00013, "air": 1.000277,
@@ -184,14 +185,14 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
         out = _conductor(bsdf, props)
         if kind == "roughconductor":
             out.update(_rough(bsdf, props))
-    elif kind in ("dielectric", "roughdielectric"):
+    elif kind in ("dielectric", "roughdielectric", "thindielectric"):
         _no(props, bsdf, "specular_reflectance", "specular_transmittance")
         ior = _relative_ior(props, bsdf, "bk7")
         if not 1.0 < ior <= 4.0:
             raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the denser medium "
                              "must be inside; 1 is no interface)")
-        if kind == "dielectric":
-            return {"type": "dielectric", "ior": ior}
+        if kind != "roughdielectric":
+            return {"type": kind, "ior": ior}
         rough = _rough(bsdf, props)
         if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
             raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least "
