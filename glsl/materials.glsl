@@ -2,7 +2,8 @@
 // MCPT_MAT_TEXELS RGBA32UI texels per material:
 //   0 (albedo.rgb, type)  1 (emission.rgb, light_pdf_area)              -- always
 //   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS >= 4
-//   4 (k.rgb, 0)                       -- when MCPT_MAT_TEXELS == 5 (a complex-Fresnel conductor)
+//   4 (k.rgb, 0)                       -- with a complex-Fresnel conductor (MCPT_FRESNEL_COMPLEX)
+//   the last 16: a rough plastic's transmittance table (bsdf_roughplastic.glsl) -- MCPT_MAT_ROUGH_PLASTIC
 // light_pdf_area = luminance(Le) / total emitted power: the density, per unit area, with which
 // next-event estimation picks a point on a triangle of this material (needed for MIS).
 //
@@ -20,7 +21,8 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 #define MAT_CONDUCTOR 1
 #define MAT_DIELECTRIC 2
 #define MAT_PLASTIC 3
-// 4: MAT_ROUGH_DIELECTRIC (bsdf_roughdielectric.glsl), 5: MAT_THIN_DIELECTRIC (bsdf_thindielectric.glsl)
+// 4: MAT_ROUGH_DIELECTRIC (bsdf_roughdielectric.glsl), 5: MAT_THIN_DIELECTRIC (bsdf_thindielectric.glsl),
+// 6: MAT_ROUGH_PLASTIC (bsdf_roughplastic.glsl, whose table is the last 16 texels of its block)
 #define MAT_FLAG_SMOOTH 1u
 #define MAT_FLAG_ONE_SIDED 8u   // bits 1-2: the conductor's Fresnel mode (bsdf_conductor.glsl)
 // bits 4-5: the microfacet distribution and masking term (bsdf_microfacet.glsl)
@@ -37,8 +39,11 @@ struct Material {
     // Conductor, in sigma_a's texel: Schlick's lobe scale, or eta (the complex index's real part).
     vec3 scale; vec3 eta;
 #endif
-#if MCPT_MAT_TEXELS > 4
+#if MCPT_FRESNEL_COMPLEX
     vec3 k;         // conductor, complex Fresnel: the extinction coefficient
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    int base;       // the material's first texel (rough plastic reads its table after it)
 #endif
 };
 
@@ -57,8 +62,11 @@ Material material(int id) {
     m.sigma_a = uintBitsToFloat(d.xyz); m.fdr_int = uintBitsToFloat(d.w);
     m.scale = m.sigma_a; m.eta = m.sigma_a;
 #endif
-#if MCPT_MAT_TEXELS > 4
+#if MCPT_FRESNEL_COMPLEX
     m.k = uintBitsToFloat(texelFetch(u_materials, base + 4).xyz);
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    m.base = base;
 #endif
     return m;
 }
@@ -76,7 +84,7 @@ struct BsdfSample {
 };
 
 // Dispatch: one #include per BSDF file.
-#if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC
+#if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC || MCPT_MAT_ROUGH_PLASTIC
 #include "bsdf_diffuse.glsl"
 #endif
 #if MCPT_MICROFACET
@@ -86,7 +94,7 @@ struct BsdfSample {
 #endif
 #include "bsdf_microfacet.glsl"
 #endif
-#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR || MCPT_MAT_ROUGH_DIELECTRIC || MCPT_MAT_THIN_DIELECTRIC
+#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR || MCPT_MAT_ROUGH_DIELECTRIC || MCPT_MAT_THIN_DIELECTRIC || MCPT_MAT_ROUGH_PLASTIC
 #include "bsdf_fresnel.glsl"
 #endif
 #if MCPT_MAT_CONDUCTOR
@@ -103,6 +111,9 @@ struct BsdfSample {
 #endif
 #if MCPT_MAT_THIN_DIELECTRIC
 #include "bsdf_thindielectric.glsl"
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+#include "bsdf_roughplastic.glsl"
 #endif
 
 // The material as seen from the side the path arrives on (`front`: the outside). A rough
@@ -161,6 +172,9 @@ vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
 #if MCPT_MAT_PLASTIC
     if (m.type == MAT_PLASTIC) return plastic_eval(m, n, wo, wi, pdf);
 #endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    if (m.type == MAT_ROUGH_PLASTIC) return roughplastic_eval(m, n, wo, wi, pdf);
+#endif
 #if MCPT_MAT_DIELECTRIC
     if (m.type == MAT_DIELECTRIC) { pdf = 0.0; return vec3(0.0); }
 #endif
@@ -200,6 +214,9 @@ bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec3 u, out BsdfSample
 #endif
 #if MCPT_MAT_THIN_DIELECTRIC
     if (m.type == MAT_THIN_DIELECTRIC) return thindielectric_sample(m, n, wo, u.x, s);
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    if (m.type == MAT_ROUGH_PLASTIC) return roughplastic_sample(m, n, wo, u.xy, s);
 #endif
 #if MCPT_MAT_DIFFUSE
     s.wi = sample_cosine(n, u.xy, s.pdf);

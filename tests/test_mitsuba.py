@@ -274,8 +274,8 @@ def test_plastic_default_is_mapped_exactly_to_mcpts_nonlinear_plastic(tmp_path):
 # --- refusals: one line, file:line: <element>: reason ---------------------------------------------
 
 REFUSALS = [
-    ('<shape type="sphere"><bsdf type="roughplastic"/></shape>',
-     r'<bsdf type="roughplastic">: not supported by mcpt \(supported: diffuse'),
+    ('<shape type="sphere"><bsdf type="principled"/></shape>',
+     r'<bsdf type="principled">: not supported by mcpt \(supported: diffuse'),
     ('<shape type="bsplinecurve"/>', r'<shape type="bsplinecurve">: not supported by mcpt'),
     ('<emitter type="envmap"/>', r'<emitter type="envmap">: not supported by mcpt'),
     ('<integrator type="aov"/><shape type="sphere"/>',

@@ -86,6 +86,7 @@ class Uses:
     separable_masking: bool = False  # some rough material has masking: separable
     rough_dielectric: bool = False  # rough glass present (mcpt/shading/roughdielectric.py)
     thin_dielectric: bool = False   # thin glass present (mcpt/shading/thindielectric.py)
+    rough_plastic: bool = False     # rough plastic present: its 16-texel table (roughplastic.py)
     dielectric: bool = False        # smooth glass present
     absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
@@ -105,7 +106,7 @@ class Uses:
             self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
             dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True, beckmann=True, separable_masking=True,
-            rough_dielectric=True, thin_dielectric=True)
+            rough_dielectric=True, thin_dielectric=True, rough_plastic=True)
 
     @property
     def delta(self) -> bool:
@@ -121,11 +122,12 @@ class Uses:
     def material_texels(self) -> int:
         """Texels per material in the table: 2 for diffuse-only scenes, 4 with any parameter, 5
         with a complex-Fresnel conductor (its k)."""
+        table = 16 if self.rough_plastic else 0
         if self.conductor and self.fresnel_complex:
-            return 5
+            return 5 + table
         extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
-                 or self.one_sided or self.rough_dielectric or self.thin_dielectric)
-        return 4 if extra else 2
+                 or self.one_sided or self.rough_dielectric or self.thin_dielectric or self.rough_plastic)
+        return (4 if extra else 2) + table
 
     @property
     def written_out(self) -> int:
@@ -295,6 +297,7 @@ class Features:
             "MCPT_MAT_PLASTIC": b(u.plastic),
             "MCPT_MAT_ROUGH_DIELECTRIC": b(u.rough_dielectric),
             "MCPT_MAT_THIN_DIELECTRIC": b(u.thin_dielectric),
+            "MCPT_MAT_ROUGH_PLASTIC": b(u.rough_plastic),
             "MCPT_TRANSMISSION": b(u.transmission),
             "MCPT_DELTA": b(u.delta),
             "MCPT_MAT_TEXELS": u.material_texels,

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..shading import roughplastic
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from .materials import ImageTexture, Material
@@ -65,6 +66,7 @@ class MaterialRow:
     one_sided: bool = False
     distribution: str = "ggx"
     masking: str = "height_correlated"
+    nonlinear: bool = False
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -121,6 +123,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
                        one_sided=not ym.two_sided, distribution=ym.distribution, masking=ym.masking,
+                       nonlinear=ym.nonlinear,
                        **conductor_columns(ym))
 
 
@@ -193,7 +196,8 @@ class MaterialResolver:
                              spec=rgb("spec"), eta=rgb("eta"), k=rgb("k"),
                              one_sided=col("one_sided", bool),
                              distribution=tuple(r.distribution for r in rows),
-                             masking=tuple(r.masking for r in rows))
+                             masking=tuple(r.masking for r in rows), nonlinear=col("nonlinear", bool),
+                             coat=np.asarray([_coat(r) for r in rows]).reshape(-1, 65))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -238,6 +242,14 @@ class MaterialResolver:
             raise TextureError(f"{mesh_where}: {spec.file}: material {mm.name!r} of {tmap.declared_in}: "
                                f"{tmap.keyword} texture not found: {tmap.file}")
         return TextureRef(tmap.file)
+
+
+def _coat(row: MaterialRow) -> np.ndarray:
+    """A rough plastic's coat tables (T at 64 cosines, then Fdr_int); zeros for other rows."""
+    if row.type != "roughplastic":
+        return np.zeros(65)
+    table, fdr = roughplastic.tables(float(row.ior), float(row.alpha), row.distribution)
+    return np.append(table, fdr)
 
 
 def _file_emission(mesh_file: Path, mm, ke: RGB, ref: TextureRef | None) -> RGB:

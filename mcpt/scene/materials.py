@@ -96,9 +96,11 @@ MATERIAL_KEYS = {
     "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
     "roughdielectric": ("ior", "roughness", "distribution", "masking"),
     "thindielectric": ("ior",),
+    "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
+                     "two_sided"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
-             "metal", "specular_reflectance", "two_sided", "distribution", "masking")
+             "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear")
 
 
 class Material(StrictModel):
@@ -124,6 +126,9 @@ class Material(StrictModel):
       ``masking`` as for a rough conductor (glsl/bsdf_roughdielectric.glsl).
     * ``thindielectric``: a window pane of index ``ior`` (Mitsuba 3's ``thindielectric``): light
       passes unrefracted or reflects, the pane's internal reflections summed.
+    * ``roughplastic``: Mitsuba 3's ``roughplastic``: a Lambertian base (``albedo``) under a rough
+      dielectric coat (``ior``, ``roughness`` in [0.001, 1], ``distribution``, ``masking``), the
+      coat's internal reflections by Mitsuba's ``nonlinear`` rule (default false).
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -132,8 +137,10 @@ class Material(StrictModel):
     two sides by nature.
     """
 
-    type: Literal["diffuse", "conductor", "dielectric", "plastic", "roughdielectric", "thindielectric"] = "diffuse"
-    """Material model: diffuse, conductor, dielectric, plastic, roughdielectric or thindielectric."""
+    type: Literal["diffuse", "conductor", "dielectric", "plastic", "roughdielectric", "thindielectric",
+                  "roughplastic"] = "diffuse"
+    """Material model: diffuse, conductor, dielectric, plastic, roughdielectric, thindielectric or
+    roughplastic."""
     albedo: Albedo | None = None
     """Linear RGB reflectance in [0, 1]; None = the mesh's MTL ``Kd``, else 0.8 grey. For a
     conductor: the reflectance at normal incidence."""
@@ -167,6 +174,8 @@ class Material(StrictModel):
     """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
     """Emitted radiance (W sr^-1 m^-2, linear RGB, >= 0), front side only; None = MTL ``Ke``, else 0."""
+    nonlinear: bool = False
+    """Rough plastic: Mitsuba's ``nonlinear`` (the base's albedo inside the internal-reflection sum)."""
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
@@ -189,11 +198,11 @@ class Material(StrictModel):
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
         if self.type == "conductor":
             self._check_fresnel()
-        if self.type in ("dielectric", "roughdielectric", "thindielectric") and self.ior == 1.0:
+        if self.type in ("dielectric", "roughdielectric", "thindielectric", "roughplastic") and self.ior == 1.0:
             raise FieldError(("ior",), "ior 1 is no interface (the same index on both sides: the "
                                        "surface would be invisible); a dielectric needs ior > 1")
-        if self.type == "roughdielectric" and self.roughness < ROUGH_GLASS_MIN_ALPHA:
-            raise FieldError(("roughness",), f"a roughdielectric needs roughness (alpha) in "
+        if self.type in ("roughdielectric", "roughplastic") and self.roughness < ROUGH_GLASS_MIN_ALPHA:
+            raise FieldError(("roughness",), f"a {self.type} needs roughness (alpha) in "
                                              f"[{ROUGH_GLASS_MIN_ALPHA:g}, 1], got {self.roughness:g} "
                                              f"(smooth glass is type: dielectric)")
         return self

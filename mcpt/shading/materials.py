@@ -17,6 +17,8 @@
                                     eta (complex Fresnel); the coat's internal diffuse
                                     Fresnel reflectance (plastic)
     4: k.rgb, 0                     conductor with complex Fresnel: the extinction coefficient
+    last 16                         rough plastic (mcpt/shading/roughplastic.py): 3.x the coat's
+                                    sampling weight, 3.w Fdr_int, then T at 64 cosines
 
 Texels 2 and 3 exist only when the scene needs one of their values (the data diet): a
 diffuse-only scene without textures, smooth normals or one-sided materials uploads 2 texels per
@@ -32,7 +34,8 @@ import numpy as np
 
 from . import microfacet
 
-TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5}
+TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5,
+         "roughplastic": 6}
 #: Glass has two sides by nature: never one-sided.
 TWO_SIDED_TYPES = ("dielectric", "roughdielectric", "thindielectric")
 
@@ -40,6 +43,7 @@ FLAG_SMOOTH_NORMALS = 1
 FRESNEL = {"schlick": 0, "none": 1, "conductor": 2}
 FRESNEL_SHIFT = 1             # flags bits 1-2: the conductor's Fresnel mode
 FLAG_ONE_SIDED = 8            # the back side is black
+FLAG_NONLINEAR = 64           # rough plastic: Mitsuba's nonlinear (bits 4-5: microfacet.py)
 NO_TEXTURE = 0xFFFFFFFF
 
 #: GGX alpha below which a conductor is a perfect mirror (pbrt-v4's EffectivelySmooth): the
@@ -97,6 +101,8 @@ class MaterialTable:
     one_sided: np.ndarray = None  # (M,) bool: the back side is black
     distribution: tuple = None  # (M,) rough materials: "ggx" or "beckmann" (microfacet.py)
     masking: tuple = None       # (M,) rough materials: "height_correlated" or "separable"
+    nonlinear: np.ndarray = None  # (M,) bool: rough plastic's nonlinear mode
+    coat: np.ndarray = None     # (M, 65) rough plastic: T at 64 cosines, Fdr_int (roughplastic.py)
 
     def __post_init__(self):
         m = len(self.names)
@@ -104,7 +110,8 @@ class MaterialTable:
                     "smooth": np.zeros(m, bool), "sigma_a": np.zeros((m, 3)),
                     "fresnel": ("schlick",) * m, "spec": np.ones((m, 3)), "eta": np.ones((m, 3)),
                     "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool),
-                    "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m}
+                    "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m,
+                    "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65))}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -115,7 +122,7 @@ class MaterialTable:
     def is_rough(self, i: int) -> bool:
         """Whether material ``i`` is a microfacet surface (alpha >= MIN_ALPHA: a rough conductor;
         a rough dielectric always is)."""
-        return self.types[i] in ("conductor", "roughdielectric") and self.alpha[i] >= MIN_ALPHA
+        return self.types[i] in ("conductor", "roughdielectric", "roughplastic") and self.alpha[i] >= MIN_ALPHA
 
     def rough(self, ids) -> bool:
         return any(self.is_rough(i) for i in self.used(ids))
@@ -153,13 +160,25 @@ class MaterialTable:
             one = self.one_sided & np.array([t not in TWO_SIDED_TYPES for t in self.types], bool)
             mf = [microfacet.flags(d, g) for d, g in zip(self.distribution, self.masking)]
             out[:m, 2, 3] = (np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0) | (mode << FRESNEL_SHIFT)
-                             | np.where(one, FLAG_ONE_SIDED, 0) | np.asarray(mf, np.int64)).astype(np.uint32)
+                             | np.where(one, FLAG_ONE_SIDED, 0) | np.asarray(mf, np.int64)
+                             | np.where(self.nonlinear, FLAG_NONLINEAR, 0)).astype(np.uint32)
             # Texel 3 rgb per type: sigma_a (dielectric), Schlick's lobe scale or eta (conductor).
             third = np.where(conductor[:, None], np.where((mode == FRESNEL["conductor"])[:, None],
                                                           self.eta, self.spec), self.sigma_a)
             out[:m, 3, :3] = f32(third)
             fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
             out[:m, 3, 3] = f32(fdr)
-        if texels >= 5:
+            self._pack_rough_plastic(out, texels)
+        if texels in (5, 21):
             out[:m, 4, :3] = f32(self.k)
         return out.reshape(-1, 4)
+
+    def _pack_rough_plastic(self, out: np.ndarray, texels: int) -> None:
+        """Rough plastic (mcpt/shading/roughplastic.py): the coat's sampling weight 1 / (1 + mean A)
+        in texel 3.x, Fdr_int in 3.w, the 64-entry transmittance table in the last 16 texels."""
+        for i, t in enumerate(self.types):
+            if t != "roughplastic":
+                continue
+            out[i, 3, :3] = np.float32([1.0 / (1.0 + float(np.mean(self.albedo[i]))), 0.0, 0.0]).view(np.uint32)
+            out[i, 3, 3] = np.float32(self.coat[i, 64]).view(np.uint32)
+            out[i, texels - 16:texels] = np.asarray(self.coat[i, :64], np.float32).view(np.uint32).reshape(16, 4)

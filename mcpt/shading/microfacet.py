@@ -26,11 +26,12 @@ def flags(distribution: str, masking: str) -> int:
 
 def uses(table, ids) -> dict[str, bool]:
     """The features.Uses fields the used rough materials need: the microfacet code (a rough
-    conductor or a rough dielectric), rough glass, Beckmann code, the separable term."""
+    conductor, dielectric or plastic), rough glass, rough plastic, Beckmann code, the separable term."""
     used = table.used(ids)
     rough = [i for i in used if table.is_rough(i)]
     return {"microfacet": bool(rough),
             "rough_dielectric": any(table.types[i] == "roughdielectric" for i in used),
+            "rough_plastic": any(table.types[i] == "roughplastic" for i in used),
             "beckmann": any(table.distribution[i] == "beckmann" for i in rough),
             "separable_masking": any(table.masking[i] == "separable" for i in rough)}
 

@@ -48,8 +48,11 @@ Material probe_material() {
     m.sigma_a = vec3(0.0); m.fdr_int = u_fdr_int;
     m.scale = u_scale; m.eta = u_eta;
 #endif
-#if MCPT_MAT_TEXELS > 4
+#if MCPT_FRESNEL_COMPLEX
     m.k = u_k;
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    m.base = 0;     // a rough plastic's table: texels of the bound material buffer
 #endif
     return m;
 }

@@ -1,11 +1,11 @@
 """Mitsuba 3 BSDFs -> mcpt materials (the same mapping a YAML ``materials:`` entry gives).
 
 Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX or Beckmann, with Mitsuba 3's
-separable Smith masking term), ``dielectric``, ``roughdielectric`` (likewise), ``thindielectric``, ``plastic``,
-``twosided`` (one BSDF for both sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it
-becomes ``two_sided: false``; ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``,
-``<spectrum>``, a number, or (diffuse reflectance, plastic diffuse_reflectance) a ``bitmap``
-texture.
+separable Smith masking term), ``dielectric``, ``roughdielectric`` (likewise), ``thindielectric``,
+``plastic``, ``roughplastic`` (both ``nonlinear`` modes, exactly), ``twosided`` (one BSDF for both
+sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_sided: false``;
+``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
+(diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` texture.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from .xmltree import Node, deref
 log = logging.getLogger("mcpt")
 
 SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "thindielectric",
-             "plastic", "twosided")
+             "plastic", "roughplastic", "twosided")
 
 #: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
 IOR = {"vacuum": 1.0, "helium": 1.00004, "hydrogen": 1.00013, "air": 1.000277,
@@ -205,6 +205,17 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
         nonlinear = V.as_bool(props["nonlinear"]) if "nonlinear" in props else False
         if not nonlinear:
             out = _linear_plastic(out, bsdf)
+    elif kind == "roughplastic":
+        _no(props, bsdf, "specular_reflectance")
+        ior = _relative_ior(props, bsdf, "polypropylene")
+        if not 1.0 < ior <= 4.0:
+            raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the coat must be denser)")
+        rough = _rough(bsdf, props)
+        if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
+            raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least alpha "
+                                                     f"{ROUGH_GLASS_MIN_ALPHA:g} (use a plastic)")
+        out = {"type": "roughplastic", "ior": ior, **rough, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids),
+               "nonlinear": V.as_bool(props["nonlinear"]) if "nonlinear" in props else False}
     else:
         raise bsdf.error(f"not supported by mcpt (supported: {', '.join(SUPPORTED)})")
     out["two_sided"] = two_sided
