@@ -131,3 +131,18 @@ def test_compiled_only_when_used_and_bad_input(tmp_path):
     with pytest.raises(SceneError, match="specular_reflectance is not supported"):
         load_scene(write_xml(tmp_path, '<shape type="sphere"><bsdf type="roughplastic">'
                                        '<rgb name="specular_reflectance" value="0.5"/></bsdf></shape>'))
+
+
+@pytest.mark.parametrize("dist", MF.DISTRIBUTIONS)
+def test_reciprocity(gl, dist):
+    """f(wo, wi) = f(wi, wo): coat and base alike (T(cos_o) T(cos_i) is symmetric)."""
+    rng = np.random.default_rng(11)
+    wi = rng.normal(size=(48, 3))
+    wi[:, 2] = np.abs(wi[:, 2]) + 0.05
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wo = (0.6, 0.0, 0.8)
+    u, tbos, _, _ = _material(dist, 0.3, wo, (0.4, 0.7, 0.2), True)
+    fwd = floats(probe(gl, "eval", wi.astype(np.float32), tbos=tbos, **u))[:, :3] / wi[:, 2:3]
+    back = np.array([floats(probe(gl, "eval", np.float32([wo]), tbos=tbos, **{**u, "wo": tuple(w)}))[0, :3]
+                     for w in wi]) / wo[2]
+    np.testing.assert_allclose(fwd, back, rtol=2e-3)
