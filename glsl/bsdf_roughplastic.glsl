@@ -8,7 +8,6 @@
 // ps = (1 - T(cos_o)) w / ((1 - T(cos_o)) w + T(cos_o) (1 - w)), w = 1 / (1 + mean(A)) (texel 3.x),
 // else the cosine lobe; the weight is f |cos| over the mixture pdf of both lobes.
 #define MAT_ROUGH_PLASTIC 6
-#define MAT_FLAG_NONLINEAR 64u
 
 float roughplastic_t(Material m, float mu) {
     float x = clamp(mu, 0.0, 1.0) * 63.0;

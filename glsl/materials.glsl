@@ -26,6 +26,7 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 #define MAT_FLAG_SMOOTH 1u
 #define MAT_FLAG_ONE_SIDED 8u   // bits 1-2: the conductor's Fresnel mode (bsdf_conductor.glsl)
 // bits 4-5: the microfacet distribution and masking term (bsdf_microfacet.glsl)
+#define MAT_FLAG_NONLINEAR 64u  // plastics: Mitsuba's nonlinear (bsdf_plastic.glsl, bsdf_roughplastic.glsl)
 
 struct Material {
     vec3 albedo; int type; vec3 emission; float light_pdf_area;

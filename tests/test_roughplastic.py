@@ -118,7 +118,7 @@ def test_compiled_only_when_used_and_bad_input(tmp_path):
     assert for_world(load_world(_mat("{type: plastic}"))).defines()["MCPT_MAT_ROUGH_PLASTIC"] == 0
     assert "needs roughness (alpha) in [0.001, 1], got 0" in _err("{type: roughplastic}")
     assert "ior 1 is no interface" in _err("{type: roughplastic, roughness: 0.1, ior: 1}")
-    assert "plastic material has no nonlinear" in _err("{type: plastic, nonlinear: true}")
+    assert "diffuse material has no nonlinear" in _err("{nonlinear: true}")
     from .test_mitsuba import write_xml
 
     body = """<shape type="sphere"><bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.2, 0.4, 0.6"/>
@@ -146,3 +146,20 @@ def test_reciprocity(gl, dist):
     back = np.array([floats(probe(gl, "eval", np.float32([wo]), tbos=tbos, **{**u, "wo": tuple(w)}))[0, :3]
                      for w in wi]) / wo[2]
     np.testing.assert_allclose(fwd, back, rtol=2e-3)
+
+
+def test_smooth_plastic_linear_mode(gl):
+    """Smooth plastic (glsl/bsdf_plastic.glsl) in both of Mitsuba's modes: the base divided by
+    1 - Fdr_int (nonlinear false) or 1 - A Fdr_int (true); the YAML default is true for plastic."""
+    from mcpt.shading.materials import fdr_internal
+
+    fdr = fdr_internal(1.5)
+    u = dict(type="plastic", albedo=(0.2, 0.5, 0.9), ior=1.5, fdr_int=fdr, wo=(0.6, 0.0, 0.8))
+    wi = np.float32([[-0.3, 0.2, 0.9327379], [0.1, -0.5, 0.8602325]])
+    lin = floats(probe(gl, "eval", wi, **u))[:, :3].astype(np.float64)
+    non = floats(probe(gl, "eval", wi, **{**u, "flags": FLAG_NONLINEAR}))[:, :3].astype(np.float64)
+    a = np.asarray(u["albedo"])
+    np.testing.assert_allclose(lin / non, np.broadcast_to((1 - a * fdr) / (1 - fdr), lin.shape), rtol=1e-5)
+    assert _mat("{type: plastic}").materials["m"].nonlinear_mode is True
+    assert _mat("{type: plastic, nonlinear: false}").materials["m"].nonlinear_mode is False
+    assert _mat("{type: roughplastic, roughness: 0.1}").materials["m"].nonlinear_mode is False

@@ -123,7 +123,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
                        one_sided=not ym.two_sided, distribution=ym.distribution, masking=ym.masking,
-                       nonlinear=ym.nonlinear,
+                       nonlinear=ym.nonlinear_mode,
                        **conductor_columns(ym))
 
 

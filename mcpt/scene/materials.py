@@ -93,7 +93,7 @@ MATERIAL_KEYS = {
     "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
                   "specular_reflectance", "two_sided", "distribution", "masking"),
     "dielectric": ("ior", "absorption"),
-    "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
+    "plastic": ("albedo", "albedo_texture", "ior", "nonlinear", "two_sided"),
     "roughdielectric": ("ior", "roughness", "distribution", "masking"),
     "thindielectric": ("ior",),
     "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
@@ -121,6 +121,8 @@ class Material(StrictModel):
     * ``plastic``: a Lambertian base (``albedo``) under a smooth dielectric coat of index ``ior``:
       a mirror-like reflection (Fresnel) plus diffuse light that got through the coat, including
       the light the coat reflects back onto the base. A white plastic reflects all light.
+      ``nonlinear`` (default true here) as Mitsuba's: false divides the base by 1 - Fdr_int, true
+      by 1 - A Fdr_int (Mitsuba's plastic defaults to false: its reader says so explicitly).
     * ``roughdielectric``: frosted glass, a rough interface of index ``ior`` (Walter et al. 2007,
       Mitsuba 3's ``roughdielectric``): ``roughness`` (alpha in [0.001, 1]), ``distribution``,
       ``masking`` as for a rough conductor (glsl/bsdf_roughdielectric.glsl).
@@ -174,8 +176,10 @@ class Material(StrictModel):
     """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
     """Emitted radiance (W sr^-1 m^-2, linear RGB, >= 0), front side only; None = MTL ``Ke``, else 0."""
-    nonlinear: bool = False
-    """Rough plastic: Mitsuba's ``nonlinear`` (the base's albedo inside the internal-reflection sum)."""
+    nonlinear: bool | None = None
+    """Plastic, rough plastic: Mitsuba's ``nonlinear`` (the base's albedo inside the internal-reflection
+    sum); None: true for ``plastic`` (mcpt's model since issue #3), false for ``roughplastic`` (Mitsuba's
+    default)."""
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
@@ -206,6 +210,11 @@ class Material(StrictModel):
                                              f"[{ROUGH_GLASS_MIN_ALPHA:g}, 1], got {self.roughness:g} "
                                              f"(smooth glass is type: dielectric)")
         return self
+
+    @property
+    def nonlinear_mode(self) -> bool:
+        """A plastic's nonlinear mode with the type's default resolved."""
+        return self.nonlinear if self.nonlinear is not None else self.type == "plastic"
 
     @property
     def fresnel_mode(self) -> str:

@@ -43,7 +43,7 @@ FLAG_SMOOTH_NORMALS = 1
 FRESNEL = {"schlick": 0, "none": 1, "conductor": 2}
 FRESNEL_SHIFT = 1             # flags bits 1-2: the conductor's Fresnel mode
 FLAG_ONE_SIDED = 8            # the back side is black
-FLAG_NONLINEAR = 64           # rough plastic: Mitsuba's nonlinear (bits 4-5: microfacet.py)
+FLAG_NONLINEAR = 64           # plastics: Mitsuba's nonlinear (bits 4-5: microfacet.py)
 NO_TEXTURE = 0xFFFFFFFF
 
 #: GGX alpha below which a conductor is a perfect mirror (pbrt-v4's EffectivelySmooth): the
@@ -101,7 +101,7 @@ class MaterialTable:
     one_sided: np.ndarray = None  # (M,) bool: the back side is black
     distribution: tuple = None  # (M,) rough materials: "ggx" or "beckmann" (microfacet.py)
     masking: tuple = None       # (M,) rough materials: "height_correlated" or "separable"
-    nonlinear: np.ndarray = None  # (M,) bool: rough plastic's nonlinear mode
+    nonlinear: np.ndarray = None  # (M,) bool: a plastic's nonlinear mode
     coat: np.ndarray = None     # (M, 65) rough plastic: T at 64 cosines, Fdr_int (roughplastic.py)
 
     def __post_init__(self):

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import logging
 
-from ...shading.materials import fdr_internal
 from ...shading.metals import METALS
 from ...shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from ..fields import TEXTURE_SUFFIXES
@@ -152,20 +151,6 @@ def _rough(bsdf: Node, props: dict[str, Node]) -> dict:
     return {"roughness": alpha, "distribution": dist, "masking": "separable"}
 
 
-def _linear_plastic(out: dict, bsdf: Node) -> dict:
-    """Mitsuba's default plastic (``nonlinear=false``) scales the base by 1 / (1 - Fdr) where
-    mcpt's (Mitsuba's ``nonlinear=true``, glsl/bsdf_plastic.glsl) divides by (1 - A Fdr); the
-    albedo A' = A / (1 - Fdr + Fdr A) makes the two equal exactly (A' <= 1 for A <= 1). A texture
-    cannot be remapped per texel here: approximated with a warning."""
-    f = fdr_internal(out["ior"])
-    if "albedo" in out:
-        out["albedo"] = [a / (1.0 - f + f * a) for a in out["albedo"]]
-    else:
-        log.warning("%s:%d: %s: a textured plastic with nonlinear=false is approximated by "
-                    "nonlinear=true (mcpt's plastic): its base is darker", bsdf.file, bsdf.line, bsdf.label)
-    return out
-
-
 def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
     """The mcpt material dict of a ``<bsdf>`` (a ref followed); one located error if refused."""
     bsdf = deref(bsdf, ids)
@@ -201,10 +186,8 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
     elif kind == "plastic":
         _no(props, bsdf, "specular_reflectance")
         ior = _relative_ior(props, bsdf, "polypropylene")
-        out = {"type": "plastic", "ior": ior, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids)}
-        nonlinear = V.as_bool(props["nonlinear"]) if "nonlinear" in props else False
-        if not nonlinear:
-            out = _linear_plastic(out, bsdf)
+        out = {"type": "plastic", "ior": ior, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids),
+               "nonlinear": V.as_bool(props["nonlinear"]) if "nonlinear" in props else False}
     elif kind == "roughplastic":
         _no(props, bsdf, "specular_reflectance")
         ior = _relative_ior(props, bsdf, "polypropylene")
