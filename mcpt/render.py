@@ -209,7 +209,7 @@ class _Loop:
         image, layers, extra = finish(result, self.opts.aovs, self.opts.denoise)
         hdr.update(extra)  # mcpt:aovs lists the layers written (the record, the ones computed)
         for output in self.opts.outputs:
-            write_image(output, image, hdr, self.opts.exposure, layers=layers)
+            write_image(output, image, hdr, self.opts.exposure, layers=layers, alpha=result.alpha)
         return list(self.opts.outputs)
 
 

@@ -237,9 +237,8 @@ def test_bad_index_non_triangles_sparse_lights_missing_file(tmp_path):
         load_scene(b.write_gltf(tmp_path / "m.gltf"))
     b = small_scene()
     b.doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "name": "bulb"}]}}
-    b.node(extensions={"KHR_lights_punctual": {"light": 0}})
-    with pytest.raises(GltfError, match=r"nodes\[5\]: KHR_lights_punctual light 0 'bulb' \(point\): punctual "
-                                        r"lights are not supported by mcpt yet \(issue #20\)"):
+    b.node(extensions={"KHR_lights_punctual": {"light": 1}})  # issue #20: lights are read
+    with pytest.raises(GltfError, match=r"nodes\[5\]: KHR_lights_punctual light 1 does not exist \(1 lights\)"):
         load_scene(b.write_gltf(tmp_path / "m.gltf"))
     with pytest.raises(SceneError, match=r"missing.glb: cannot read the glTF file: No such file"):
         load_scene(tmp_path / "missing.glb")

@@ -7,7 +7,8 @@ reads it:
 
     tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
     nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
-    lights     mcpt/shading/lights.py    <-> glsl/lights.glsl
+    lights     mcpt/shading/lights.py    <-> glsl/lights.glsl (+ light_punctual)
+    env_texels, env_cdf  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
     materials  mcpt/shading/materials.py <-> glsl/materials.glsl
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
@@ -28,6 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..shading.camera import basis
+from ..shading.environment import env_uniforms
+from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
@@ -37,7 +40,7 @@ from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-         "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
 
 
 @dataclass(frozen=True)
@@ -72,6 +75,13 @@ def pack(world: World, features: Features) -> Packed:
     f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
     uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
                 "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
-                "u_light_count": world.lights.count}
+                "u_light_count": world.lights.entries}
+    if features.compiled.sun_lights:
+        uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
+    if features.compiled.environment:
+        uniforms.update(env_uniforms(world.scene.environment, world.lights.envmap,
+                                     world.lights.env_pmf if features.nee else 0.0))
+    if features.compiled.envmap and world.lights.envmap is not None:
+        buffers.update(world.lights.envmap.pack())
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))
     return Packed(cam.width, cam.height, buffers, uniforms, per_item)

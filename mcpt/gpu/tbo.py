@@ -30,12 +30,14 @@ GL_R32F = 0x822E
 UNITS = {
     "nodes": 1,       # BVH interior nodes, 4 texels each (mcpt/shapes/bvh.py BVH.gpu_nodes)
     "tris": 2,        # triangle vertices, 3 texels each (mcpt/shapes/geometry.py)
-    "lights": 3,      # emissive triangle table, 1 texel each (mcpt/shading/lights.py)
+    "lights": 3,      # light table, 1 texel per light + punctual data (mcpt/shading/lights.py)
     "materials": 4,   # material table, 2 or 4 texels each (mcpt/shading/materials.py)
     "random": 5,      # per-pass random numbers, 1 float each (mcpt/shading/sampler.py)
     "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/shading/normals.py)
     "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/shading/texture.py)
     "textures": 9,    # albedo images: headers + sRGB texels (mcpt/shading/texture.py)
+    "env_texels": 10,  # environment map radiance + cell pdfs, 1 texel each (mcpt/shading/envmap.py)
+    "env_cdf": 11,     # environment map marginal + conditional CDFs, 4 floats a texel (ditto)
 }
 
 

@@ -44,6 +44,7 @@ from pydantic import (
 from ..shading.camera import orthonormal
 from .diagnostics import FieldError, dotted, line_of, to_scene_error
 from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent, scene_path
+from .lights import Environment, Light
 from .materials import Material
 from .transform import Transform
 
@@ -105,6 +106,10 @@ class RenderSettings(StrictModel):
     """Maximum scattering events per path: 0 = emitters only, 1 = direct light only."""
     seed: Annotated[int, Field(ge=0, lt=2**63)] = 0
     """Random seed, 0 <= seed < 2**63 (fits a signed 64-bit integer)."""
+    transparent: bool = False
+    """Transparent film (issue #20): camera rays that leave the scene see nothing and the image
+    gets an alpha channel (the share of each pixel's camera rays that hit something; EXR ``A``,
+    PNG alpha), for compositing over a plate; the environment still lights the scene."""
 
 
 
@@ -180,6 +185,10 @@ class Scene(StrictModel):
     """Material name -> material (a read-only mapping)."""
     meshes: Annotated[tuple[Mesh, ...], BeforeValidator(list_to_tuple), Field(min_length=1)]
     """The meshes, at least one (required)."""
+    lights: Annotated[tuple[Light, ...], none_is_absent(tuple), BeforeValidator(list_to_tuple)] = ()
+    """Point, spot and directional lights (issue #20, mcpt/scene/lights.py), besides emissive meshes."""
+    environment: Environment | None = None
+    """The light of rays that leave the scene (issue #20); None: black."""
 
     _source: Path | None = PrivateAttr(default=None)
     _lines: dict = PrivateAttr(default_factory=dict)  # key path (strings) -> line, from the reader
@@ -242,6 +251,8 @@ class Scene(StrictModel):
             "render": render,
             "materials": dict(self.materials),
             "meshes": self.meshes,
+            "lights": self.lights,
+            "environment": self.environment,
         }
         source = self._source if self._source is not None else "<scene>"
         try:

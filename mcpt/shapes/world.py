@@ -23,6 +23,8 @@ import numpy as np
 from ..errors import McptError
 from ..scene import Scene
 from ..scene.material_meaning import MaterialResolver
+from ..shading.environment import env_power, load_environment
+from ..shading.light_punctual import punctual_lights
 from ..shading.lights import Lights, build_lights
 from ..shading.materials import MaterialTable
 from . import geometry
@@ -93,8 +95,8 @@ def load_world(scene: Scene) -> World:
     tris = tris[bvh.order]
     tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
-    lights = build_lights(geometry.areas(tris), table.emission[tri_mat])
-    if lights.count == 0:
+    lights = _lights(scene, tris, table.emission[tri_mat])
+    if lights.entries == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")
     stats = {"triangles": int(tris.shape[0]),
@@ -103,6 +105,17 @@ def load_world(scene: Scene) -> World:
              "materials": len(table.names), "emissive_triangles": lights.count,
              "textures": len(resolver.textures), "load_seconds": t_load, "bvh": bvh.stats()}
     return World(scene, tris, tri_mat, table, lights, bvh, stats, normals, uvs, resolver.textures)
+
+
+def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
+    """Emissive triangles, the scene's punctual lights and its environment (issue #20), in one
+    table; positions relative to the camera like the triangles."""
+    lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
+    radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
+    origin = np.asarray(scene.camera.position, np.float64)
+    envmap = load_environment(scene.environment, scene.where("environment", "file"))
+    return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
+                        env_power(scene.environment, envmap, radius), envmap)
 
 
 def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:

@@ -161,4 +161,6 @@ def relative_paths(data: dict, folder: Path) -> dict:
     for mat in data.get("materials", {}).values():
         if "albedo_texture" in mat:
             mat["albedo_texture"]["file"] = rel(mat["albedo_texture"]["file"])
+    if "file" in (data.get("environment") or {}):  # issue #20: an envmap's image
+        data["environment"]["file"] = rel(data["environment"]["file"])
     return data
