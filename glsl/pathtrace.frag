@@ -164,7 +164,7 @@ void tally_sample(inout Tally T, vec3 v) {
 Path sample_start(ivec2 pixel, int pix, int tile_pix, int j) {
     sampler_init(pix, tile_pix, j);
     g_camera_escaped = false;
-    return camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+    return camera_path(camera_sample(pixel));
 }
 
 // The sample in flight is over (ended or dropped): if no vertex gave its AOVs, it adds zeros.

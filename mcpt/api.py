@@ -17,6 +17,7 @@ from .gpu.aov import AOVS
 from .gpu.aov import parse as parse_aovs
 from .prepare import Prepared, prepare
 from .render import Options, Outcome, render, run
+from .shading.camera import camera_summary
 from .shading.lights import describe_lights
 
 __all__ = ["Options", "Outcome", "Prepared", "describe", "prepare", "render", "render_scene", "run"]
@@ -49,6 +50,7 @@ def describe(scene, **kwargs) -> dict:
             "counts": {k: v for k, v in p.world.stats.items() if k != "bvh"},
             "lights": describe_lights(p.world.lights, p.scene),
             "bvh": p.world.bvh.stats(),
+            "camera": camera_summary(cam),
             "features": {"key": dict(p.features.key), "defines": p.features.defines()},
             "buffers": {**r.setup["upload_bytes"], "random_per_pass": r.setup["random_bytes_per_pass"]},
             "gl": {**p.gl.describe(), **p.gl.limits()},

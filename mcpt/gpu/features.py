@@ -25,6 +25,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..shading import microfacet, thindielectric
+from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
@@ -103,6 +104,9 @@ class Uses:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
+    pixel_filter: int = 0           # 0 box, 1 tent, 2 Gaussian: filter importance sampling (pixel_filter.py)
+    thin_lens: bool = False         # depth of field: a point on the lens per sample (2 more dims)
+    orthographic: bool = False      # parallel camera rays
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
@@ -258,7 +262,7 @@ class Features:
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return dims_for(self.bounces)
+        return dims_for(self.bounces, self.compiled.thin_lens)
 
     @property
     def continues(self) -> bool:
@@ -323,6 +327,9 @@ class Features:
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
+            "MCPT_FILTER": u.pixel_filter,
+            "MCPT_THIN_LENS": b(u.thin_lens),
+            "MCPT_ORTHO": b(u.orthographic),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
             "MCPT_ALPHA": b(o.alpha and o.variance),
@@ -387,7 +394,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
-    f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids))
+    f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids), **camera_uses(world.scene.camera))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

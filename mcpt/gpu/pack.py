@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..shading.camera import basis
+from ..shading.camera import camera_uniforms
 from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
@@ -72,9 +72,7 @@ def pack(world: World, features: Features) -> Packed:
     if features.textures and world.textures:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
-    f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
-    uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
-                "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
+    uniforms = {**camera_uniforms(cam), "u_tri_count": world.n_triangles,
                 "u_light_count": world.lights.entries}
     if features.compiled.sun_lights:
         uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))

@@ -30,7 +30,7 @@ from ..shading.materials import MaterialTable
 from . import geometry
 from .bvh import BVH
 from .bvh_build import build_bvh
-from .dedup import first_of_duplicates
+from .dedup import first_of_repeated_corners
 from .mesh import Mesh, MeshError, assemble, read_geometry
 from .sources import flipped, source_of
 
@@ -153,9 +153,7 @@ def _drop_repeated(tris32: np.ndarray, n_meshes: int):
     dropped (mesh.py does this within a file)."""
     if n_meshes < 2:
         return tris32, slice(None), 0
-    corners = np.ascontiguousarray(tris32.reshape(-1, 3)).view(np.uint32)
-    _, ids = np.unique(corners, axis=0, return_inverse=True)
-    keep = first_of_duplicates(ids.reshape(-1, 3))
+    keep = first_of_repeated_corners(tris32)
     repeated = int(tris32.shape[0] - keep.size)
     if repeated:
         # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one
