@@ -87,6 +87,7 @@ bool path_step(inout Path P) {
     vec3 ns = shading_normal(m, h, ng, cos_o, wo);  // normals.glsl
     if (!normal_map_apply(h, cos_o < 0.0, wo, ns)) return false;  // normal_map.glsl
     m.albedo = albedo_at(m, h);                     // texture.glsl
+    material_side(m, cos_o < 0.0);                  // materials.glsl
     if (material_black(m)) return false;  // pure emitter
     vec3 x = tri_point(h.tri, h.bary);
     vec3 xo = offset_ray(x, ng);
@@ -95,7 +96,7 @@ bool path_step(inout Path P) {
     if (bsdf_has_smooth(m)) next_event(P, m, ns, ng, wo, xo, dim);  // lights.glsl
 #endif
     BsdfSample s;
-    if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return false;
+    if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand_bsdf(dim), s)) return false;
     if (!bsdf_sample_side_ok(s, ng)) return false;
     s.weight *= normal_map_shadow(s.wi);  // normal_map.glsl (1 without normal maps)
     path_scatter(P, s, x, ng, xo);  // path_state.glsl
