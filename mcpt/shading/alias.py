@@ -50,8 +50,9 @@ def build_alias(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     w = np.asarray(weights, np.float64)
     rows, n = w.shape
     size = padded_size(n)
-    q = np.zeros((rows, size), np.float64)
-    q[:, :n] = w * (size / w.sum(axis=1, keepdims=True))  # mean 1 per bucket
+    q = w * (size / w.sum(axis=1, keepdims=True))        # mean 1 per bucket
+    if size > n:                                         # padding buckets weigh 0
+        q = np.concatenate([q, np.zeros((rows, size - n))], axis=1)
     alias = np.broadcast_to(np.arange(size), (rows, size)).copy()
     qf, af = q.reshape(-1), alias.reshape(-1)
     small, large = q < 1.0, q > 1.0                      # q == 1 exactly: its own bucket
