@@ -75,15 +75,16 @@ def build_alias(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     # Large item j: the first small end at or past E_j (k, its index; past the row: q = 1).
     k = np.searchsorted(s_key, l_key, side="left")
     over = np.take(s_key, k, mode="clip") - l_key
-    same = np.r_[li[1:] // size == li[:-1] // size, False]   # j + 1 is in j's row
+    same = np.ones(li.size, bool)                        # j + 1 is in j's row
+    same[lfirst[1:][n_large > 0] - 1] = False
     qf[li] = np.where(same & (over >= 0) & (over <= unit), 1.0 - over / unit, 1.0)
-    af[li] = np.where(same, np.r_[li[1:], 0], li) % size
+    af[li] = np.where(same, np.r_[li[1:], 0], li) & (size - 1)   # the column (size: 2^m)
     # Small item i starts where i - 1 ends: its large item is the first j with E_j > D_(i-1),
     # the count of j with k_j <= i - 1 (k rises with j); a row's first small item starts at 0.
     pick = np.r_[0, np.cumsum(np.bincount(k, minlength=si.size))[: si.size - 1]]
     sfirst = np.r_[0, np.cumsum(n_small)][:-1]
     pick[sfirst[n_small > 0]] = lfirst[:-1][n_small > 0]
-    af[si] = np.take(li, pick, mode="clip") % size
+    af[si] = np.take(li, pick, mode="clip") & (size - 1)
     lone = np.flatnonzero((n_large == 0) & (n_small > 0))
     return _close_out(q, alias, w, n, lone) if lone.size else _tables(q, alias)
 
