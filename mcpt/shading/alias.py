@@ -28,9 +28,9 @@ random sampling", ESA 2019) has a closed form:
 Large item j then receives the small items from the one after j - 1's D_k to its own D_k, plus
 j - 1's overflow D_k' - E_(j-1): in all D_k - E_(j-1), and keeps q_j: 1 + E_j - E_(j-1), its
 weight. One sorted search finds every D_k (numpy.searchsorted); counting the k_j <= i - 1 gives
-each small item's j. The lines are int64 fixed point (2^-35 of a bucket or finer) so that each
-row sits on its own stretch of one line exactly: with a float offset per row the comparisons
-that the bookkeeping above relies on would round.
+each small item's j. The lines are int64 fixed point (2^-40 of a bucket; 2^-33 at 2^26 texels)
+so that each row sits on its own stretch of one line exactly: with a float offset per row the
+comparisons that the bookkeeping above relies on would round.
 """
 
 from __future__ import annotations
