@@ -32,6 +32,7 @@ from ..shading.camera import basis
 from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
+from ..shading.medium import medium_uniforms
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
 from ..shapes.geometry import pack_triangles
@@ -81,6 +82,8 @@ def pack(world: World, features: Features) -> Packed:
     if features.compiled.environment:
         uniforms.update(env_uniforms(world.scene.environment, world.lights.envmap,
                                      world.lights.env_pmf if features.nee else 0.0))
+    if features.compiled.medium:
+        uniforms.update(medium_uniforms(world.scene.medium))
     if features.compiled.envmap and world.lights.envmap is not None:
         buffers.update(world.lights.envmap.pack())
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))

@@ -46,6 +46,7 @@ from .diagnostics import FieldError, dotted, line_of, to_scene_error
 from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent, scene_path
 from .lights import Environment, Light
 from .materials import Material
+from .medium import Medium
 from .transform import Transform
 
 
@@ -189,6 +190,8 @@ class Scene(StrictModel):
     """Point, spot and directional lights (issue #20, mcpt/scene/lights.py), besides emissive meshes."""
     environment: Environment | None = None
     """The light of rays that leave the scene (issue #20); None: black."""
+    medium: Medium | None = None
+    """A homogeneous participating medium filling the scene (issue #25, mcpt/scene/medium.py); None: vacuum."""
 
     _source: Path | None = PrivateAttr(default=None)
     _lines: dict = PrivateAttr(default_factory=dict)  # key path (strings) -> line, from the reader
@@ -253,6 +256,7 @@ class Scene(StrictModel):
             "meshes": self.meshes,
             "lights": self.lights,
             "environment": self.environment,
+            "medium": self.medium,
         }
         source = self._source if self._source is not None else "<scene>"
         try:

@@ -1,0 +1,70 @@
+// What a path does in the scene's medium (glsl/medium.glsl) on its way to hit k: pass through to
+// the surface (or the sky), or scatter at a medium vertex, where it takes a light sample (phase
+// function instead of BSDF, transmittance on the shadow ray: glsl/lights.glsl next_event) and a
+// phase-function sample, combined by the power heuristic as at a surface (Veach 1997 ch. 9;
+// Mitsuba 3 src/integrators/volpath.cpp). A medium vertex counts as a bounce (--bounces) and
+// reads bounce k's random numbers as a surface vertex would: light choice and point, DIM_BSDF_UV
+// for the phase direction, roulette; the free-flight distance has its own DIM_MEDIUM(k).
+#include "medium.glsl"
+#include "phase_hg.glsl"
+#include "path_state.glsl"
+#include "sampler.glsl"
+#include "lights.glsl"
+#include "roulette.glsl"
+#if MCPT_AOV
+#include "aov.glsl"
+#endif
+
+#define DIM_MEDIUM(k) (MCPT_DIM_MEDIUM + (k) - 1)
+#define MEDIUM_PASS 0
+#define MEDIUM_SCATTERED 1
+#define MEDIUM_ENDED 2
+
+#if MCPT_NEE
+// Next-event estimation at the medium vertex x (d: the direction the path arrived along).
+void medium_next_event(inout Path P, vec3 x, vec3 d, int dim) {
+    LightSample ls = light_sample(x, dim);
+    if (ls.pdf <= 0.0) return;
+    float ph = hg_eval(dot(d, ls.wi), u_medium_g);
+    if (light_visible(ls, x)) {
+        float w = 1.0;
+#if MCPT_MIS
+        if (!ls.delta) w = power_heuristic(ls.pdf, ph);
+#endif
+        P.L += P.beta * medium_tr(ls.dist) * light_radiance(ls) * (ph * w / ls.pdf);
+    }
+}
+#endif
+
+// The segment from P.ray's origin to hit k = P.k (t_hit away; INF: the ray leaves the scene).
+// MEDIUM_PASS: P.beta carries the segment's weight, the surface (or sky) comes next as without a
+// medium; MEDIUM_SCATTERED: P.ray is the next ray, for hit k + 1; MEDIUM_ENDED: the path is over.
+// Beyond the bounce limit no vertex may scatter: the segment is weighted by its transmittance.
+int medium_event(inout Path P, float t_hit) {
+    int k = P.k;
+    if (k > MCPT_BOUNCES) {
+        P.beta *= medium_tr(t_hit);
+        return MEDIUM_PASS;
+    }
+    vec3 w;
+    float t = medium_distance(t_hit, rand_at(DIM_MEDIUM(k)), w);
+    P.beta *= w;
+    if (!(t < t_hit)) return MEDIUM_PASS;
+    vec3 d = P.ray.d, x = P.ray.o + t * d;
+#if MCPT_AOV
+    if (k == 1) g_aov_a.a += t;
+    if (P.aov_open) aov_event(P, u_medium_sigma_s / max(u_medium_sigma_t, vec3(1e-30)), vec3(0.0));
+#endif
+    if (max3(P.beta) <= 0.0) return MEDIUM_ENDED;
+    int dim = DIM_BOUNCE(k);
+#if MCPT_NEE
+    medium_next_event(P, x, d, dim);
+#endif
+    float pdf;
+    vec3 wi = hg_sample(d, u_medium_g, rand2_at(dim + DIM_BSDF_UV), pdf);  // weight p / pdf = 1
+    P.pdf_bsdf_prev = pdf;
+    P.delta_prev = false;
+    P.ray = Ray(x, wi);
+    P.k = k + 1;
+    return roulette(P, k, dim) ? MEDIUM_SCATTERED : MEDIUM_ENDED;
+}
