@@ -20,13 +20,14 @@ from ..mapped import validated
 from ..model import Scene
 from . import bsdfs, camera
 from .emitters import emitter
+from .media import medium, sensor_medium
 from .shapes import ShapeOut, shape
 from .xmltree import XmlError, deref, read_tree
 
 log = logging.getLogger("mcpt")
 
 #: Top-level objects mcpt maps, and those it reads only through references.
-TOP_LEVEL = ("sensor", "integrator", "shape", "bsdf", "texture", "emitter")
+TOP_LEVEL = ("sensor", "integrator", "shape", "bsdf", "texture", "emitter", "medium", "phase")
 #: Mitsuba's material when a shape names none: a one-sided diffuse of reflectance 0.5 (0 when the
 #: shape emits: Mitsuba's Shape constructor).
 DEFAULT_MATERIAL = {"type": "diffuse", "albedo": [0.5, 0.5, 0.5], "two_sided": False}
@@ -86,6 +87,12 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     objects = [deref(c, tree.ids) for c in sensor.children if c.tag in ("film", "sampler", "ref")]
     cam, render = camera.sensor(sensor, objects)
     render["bounces"] = camera.integrator(integrator)
+    fog = sensor_medium(sensor, tree.ids)  # issue #25: the camera's medium fills the scene
+    if fog is not None:
+        kind = integrator.get("type") if integrator is not None else "path"
+        if kind not in ("volpath", "volpathmis"):
+            raise fog.error(f"the {kind} integrator ignores media: render this scene with volpath")
+        lines[("medium",)] = fog.line
     lines[("camera",)] = sensor.line
     lines[("render",)] = (integrator or sensor).line
     materials: dict[str, dict] = {}
@@ -120,6 +127,8 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
         data["lights"] = lights
     if environment is not None:
         data["environment"] = environment
+    if fog is not None:
+        data["medium"] = medium(fog, tree.ids)
     return data, lines
 
 

@@ -1,0 +1,65 @@
+"""Mitsuba 3 participating media -> mcpt's ``medium:`` (issue #25; the YAML side:
+mcpt/scene/medium.py).
+
+* ``homogeneous``: ``albedo`` (default 0.75) and ``sigma_t`` (default 1), colours or numbers,
+  ``scale`` (default 1) -> ``{albedo, density, scale}``; ``sample_emitters`` (mcpt always samples
+  them: the same expected image) and ``has_spectral_extinction`` are accepted.
+* phase ``hg`` (``g``, default 0.8) and ``isotropic`` (Mitsuba's default) -> ``g``.
+
+A medium the sensor holds (``<ref id=.../>`` or a nested ``<medium>``) fills the scene: Mitsuba's
+camera medium, mcpt's scene-wide one, exact while no shape bounds it (shapes with ``interior`` /
+``exterior`` media are refused, src/integrators/volpath.cpp changes the medium only there).
+Grid media and other phase functions are refused with their line.
+"""
+
+from __future__ import annotations
+
+from . import values as V
+from .xmltree import Node, deref
+
+_KEYS = ("albedo", "sigma_t", "scale", "sample_emitters", "has_spectral_extinction")
+
+
+def phase_g(node: Node | None) -> float:
+    """g of a <phase> (None: Mitsuba's default, isotropic)."""
+    if node is None or node.get("type") == "isotropic":
+        return 0.0
+    if node.get("type") != "hg":
+        raise node.error("not supported by mcpt (supported phase functions: isotropic, hg)")
+    props = V.properties(node)
+    for name, p in props.items():
+        if name != "g":
+            raise p.error(f"{name!r} is not a parameter of the hg phase function")
+    return V.as_float(props["g"]) if "g" in props else 0.8
+
+
+def medium(node: Node, ids: dict[str, Node]) -> dict:
+    """The YAML ``medium:`` data of a <medium>."""
+    if node.get("type") != "homogeneous":
+        raise node.error("not supported by mcpt (supported media: homogeneous)")
+    props = V.properties(node)
+    for name, p in props.items():
+        if name not in _KEYS:
+            raise p.error(f"{name!r} is not a parameter of a homogeneous medium mcpt maps "
+                          f"(mapped: {', '.join(_KEYS)})")
+    phase = None
+    for child in node.children:
+        target = deref(child, ids) if child.tag == "ref" else child
+        if target.tag == "phase":
+            phase = target
+        elif target.tag not in V.PROPERTY_TAGS:
+            raise target.error(f"<{target.tag}> inside a medium is not supported by mcpt")
+    colour = lambda name, d: list(V.as_color(props[name])) if name in props else [d, d, d]  # noqa: E731
+    out = {"albedo": colour("albedo", 0.75), "density": colour("sigma_t", 1.0), "g": phase_g(phase)}
+    if "scale" in props:
+        out["scale"] = V.as_float(props["scale"])
+    return out
+
+
+def sensor_medium(sensor: Node, ids: dict[str, Node]) -> Node | None:
+    """The <medium> a sensor holds (by reference or nested), or None."""
+    found = [deref(c, ids) if c.tag == "ref" else c for c in sensor.children if c.tag in ("ref", "medium")]
+    found = [m for m in found if m.tag == "medium"]
+    if len(found) > 1:
+        raise found[1].error("a second medium in the sensor (mcpt takes one)")
+    return found[0] if found else None
