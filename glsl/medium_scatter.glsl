@@ -21,50 +21,76 @@
 #define MEDIUM_ENDED 2
 
 #if MCPT_NEE
-// Next-event estimation at the medium vertex x (d: the direction the path arrived along).
-void medium_next_event(inout Path P, vec3 x, vec3 d, int dim) {
+// Next-event estimation at the medium vertex x of medium c (d: the direction the path arrived
+// along). Its shadow ray crosses medium c only: inside glass, the glass blocks it anyway.
+void medium_next_event(inout Path P, MediumCoeffs c, vec3 x, vec3 d, int dim) {
     LightSample ls = light_sample(x, dim);
     if (ls.pdf <= 0.0) return;
-    float ph = hg_eval(dot(d, ls.wi), u_medium_g);
+    float ph = hg_eval(dot(d, ls.wi), c.g);
     if (light_visible(ls, x)) {
         float w = 1.0;
 #if MCPT_MIS
         if (!ls.delta) w = power_heuristic(ls.pdf, ph);
 #endif
-        P.L += P.beta * medium_tr(ls.dist) * light_radiance(ls) * (ph * w / ls.pdf);
+        P.L += P.beta * transmittance(c.sigma_t, ls.dist) * light_radiance(ls) * (ph * w / ls.pdf);
     }
 }
 #endif
 
-// The segment from P.ray's origin to hit k = P.k (t_hit away; INF: the ray leaves the scene).
-// MEDIUM_PASS: P.beta carries the segment's weight, the surface (or sky) comes next as without a
-// medium; MEDIUM_SCATTERED: P.ray is the next ray, for hit k + 1; MEDIUM_ENDED: the path is over.
-// Beyond the bounce limit no vertex may scatter: the segment is weighted by its transmittance.
-int medium_event(inout Path P, float t_hit) {
+// A scattering event of medium c at x, t along P's ray (vertex k = P.k): AOVs, a light sample,
+// a phase-function sample (weight p / pdf = 1), roulette. False: the path ends.
+bool medium_vertex(inout Path P, MediumCoeffs c, vec3 x, float t) {
     int k = P.k;
-    if (k > MCPT_BOUNCES) {
-        P.beta *= medium_tr(t_hit);
-        return MEDIUM_PASS;
-    }
-    vec3 w;
-    float t = medium_distance(t_hit, rand_at(DIM_MEDIUM(k)), w);
-    P.beta *= w;
-    if (!(t < t_hit)) return MEDIUM_PASS;
-    vec3 d = P.ray.d, x = P.ray.o + t * d;
+    vec3 d = P.ray.d;
 #if MCPT_AOV
     if (k == 1) g_aov_a.a += t;
-    if (P.aov_open) aov_event(P, u_medium_sigma_s / max(u_medium_sigma_t, vec3(1e-30)), vec3(0.0));
+    if (P.aov_open) aov_event(P, c.sigma_s / max(c.sigma_t, vec3(1e-30)), vec3(0.0));
 #endif
-    if (max3(P.beta) <= 0.0) return MEDIUM_ENDED;
+    if (max3(P.beta) <= 0.0) return false;
     int dim = DIM_BOUNCE(k);
 #if MCPT_NEE
-    medium_next_event(P, x, d, dim);
+    medium_next_event(P, c, x, d, dim);
 #endif
     float pdf;
-    vec3 wi = hg_sample(d, u_medium_g, rand2_at(dim + DIM_BSDF_UV), pdf);  // weight p / pdf = 1
+    vec3 wi = hg_sample(d, c.g, rand2_at(dim + DIM_BSDF_UV), pdf);
     P.pdf_bsdf_prev = pdf;
     P.delta_prev = false;
     P.ray = Ray(x, wi);
     P.k = k + 1;
-    return roulette(P, k, dim) ? MEDIUM_SCATTERED : MEDIUM_ENDED;
+    return roulette(P, k, dim);
+}
+
+// The medium the segment to hit h runs through: an interior medium when it arrives at the back of
+// a dielectric that bounds one (as Beer-Lambert absorption decides, glsl/materials.glsl
+// material_absorb), else the scene's (id 0).
+int segment_medium(bool found, Hit h, vec3 d) {
+#if MCPT_MEDIUM_INTERIOR
+    if (found && dot(tri_normal_raw(h.tri), d) > 0.0) {
+        int mat = tri_material(h.tri);
+        for (int i = 0; i < u_media_count; ++i) {
+            if (u_media_material[i] == mat) return i + 1;
+        }
+    }
+#endif
+    return 0;
+}
+
+// The segment from P.ray's origin to hit k = P.k (h: what it found, if found; else it leaves the
+// scene). MEDIUM_PASS: P.beta carries the segment's weight, the surface (or sky) comes next as
+// without a medium; MEDIUM_SCATTERED: P.ray is the next ray, for hit k + 1; MEDIUM_ENDED: the
+// path is over. Beyond the bounce limit no vertex may scatter: the segment is weighted by its
+// transmittance.
+int medium_event(inout Path P, bool found, Hit h) {
+    int k = P.k;
+    float t_hit = found ? h.t : INF;
+    MediumCoeffs c = medium_coeffs(segment_medium(found, h, P.ray.d));
+    if (k > MCPT_BOUNCES) {
+        P.beta *= transmittance(c.sigma_t, t_hit);
+        return MEDIUM_PASS;
+    }
+    vec3 w;
+    float t = medium_distance(c, t_hit, rand_at(DIM_MEDIUM(k)), w);
+    P.beta *= w;
+    if (!(t < t_hit)) return MEDIUM_PASS;
+    return medium_vertex(P, c, P.ray.o + t * P.ray.d, t) ? MEDIUM_SCATTERED : MEDIUM_ENDED;
 }

@@ -64,7 +64,7 @@ bool path_step(inout Path P) {
     Ray ray = P.ray;
     bool found = trace_closest(ray, h);
 #if MCPT_MEDIUM
-    int event = medium_event(P, found ? h.t : INF);  // glsl/medium_scatter.glsl
+    int event = medium_event(P, found, h);  // glsl/medium_scatter.glsl
     if (event != MEDIUM_PASS) return event == MEDIUM_SCATTERED;
 #endif
     if (!found) {

@@ -12,6 +12,7 @@ import pytest
 
 from mcpt.gpu.features import for_world, loop_limit_for
 from mcpt.scene import SceneError, parse_scene
+from mcpt.shading.medium import MediumError
 from mcpt.shapes.world import load_world
 
 from .conftest import ROOT
@@ -162,3 +163,64 @@ def test_bad_media_are_one_located_line(medium, message):
         parse_scene(furnace(medium).replace("1e9", "1000000000.0"), ROOT / "scenes" / "inline.yaml")
     text = str(exc.value)
     assert "\n" not in text and "inline.yaml:8: " + message in text, text
+
+
+def glass_scene(inside: str, bounces: int = 8, env: str = "[1, 1, 1]") -> str:
+    return f"""
+camera: {{position: [0, 0, 4], look_at: [0, 0, 0], vfov_deg: 30, resolution: [24, 24]}}
+render: {{bounces: {bounces}}}
+materials:
+  glass: {{type: dielectric, {inside}}}
+  floor: {{albedo: [0.6, 0.6, 0.6]}}
+meshes:
+  - {{file: models/icosphere.obj, material: glass}}
+  - {{shape: rectangle, material: floor, transform: {{scale: 3, rotate_deg: [-90, 0, 0], translate: [0, -1, 0]}}}}
+environment: {{radiance: {env}}}
+"""
+
+
+def test_beer_lambert_is_the_non_scattering_interior_medium(gl):
+    """Issue #25: an absorbing glass sphere (absorption: color, distance) and the same glass with an
+    interior medium of sigma_a = -ln(color) / distance, sigma_s = 0 render the same pixels (one
+    seed): the medium code does the absorbing, the Beer-Lambert code is compiled out."""
+    color, distance = np.array([0.5, 0.7, 0.9]), 1.0
+    sigma_a = [float(x) for x in -np.log(color) / distance]
+    old, f_old = _render(gl, glass_scene("ior: 1.5, absorption: {color: [0.5, 0.7, 0.9], distance: 1.0}"), 16, 3)
+    new, f_new = _render(gl, glass_scene(f"ior: 1.5, interior: {{sigma_a: {sigma_a}, sigma_s: 0}}"), 16, 3)
+    assert f_old.defines()["MCPT_ABSORPTION"] == 1 and f_old.defines()["MCPT_MEDIUM"] == 0
+    assert f_new.defines()["MCPT_ABSORPTION"] == 0 and f_new.defines()["MCPT_MEDIUM_INTERIOR"] == 1
+    clear, _ = _render(gl, glass_scene("ior: 1.5"), 16, 3)
+    assert np.abs(old.image - clear.image).max() > 0.1  # the absorption shows
+    assert np.allclose(old.image, new.image, rtol=1e-5, atol=1e-6)
+
+
+def test_non_absorbing_sphere_under_a_constant_sky_is_invisible(gl):
+    """A sphere of scattering medium (albedo 1, dense, forward-scattering) behind an index-matched
+    boundary (ior 1) under a constant sky of radiance L: radiance is L everywhere (the uniform
+    field solves the transport equation without absorption), so every pixel on it is L."""
+    text = glass_scene("ior: 1.0, interior: {albedo: 1, density: 4, g: 0.6}", 1000, "[1, 2, 3]")
+    text = text.replace("  - {shape: rectangle", "#")
+    res, feats = _render(gl, text, 64, 4)
+    assert feats.defines()["MCPT_MEDIUM_INTERIOR"] == 1 and res.dropped_samples == 0
+    m = res.image.reshape(-1, 3).mean(0)
+    se = np.sqrt(res.variance.reshape(-1, 3).mean(0) / res.image[..., 0].size)
+    assert np.all(np.abs(m - [1, 2, 3]) < 4 * se + 0.01), (m, se)
+
+
+def test_interior_medium_on_an_open_mesh_is_one_located_line(gl):
+    text = glass_scene("ior: 1.5, interior: {sigma_a: 1, sigma_s: 1}").replace(
+        "file: models/icosphere.obj, material: glass", "shape: rectangle, material: glass")
+    with pytest.raises(MediumError) as exc:
+        for_world(load_world(parse_scene(text, ROOT / "scenes" / "inline.yaml")))
+    assert str(exc.value).startswith(f"{ROOT / 'scenes' / 'inline.yaml'}:5: materials.glass.interior: the meshes "
+                                     "of material 'glass' are open (4 edges with one triangle)"), str(exc.value)
+
+
+def test_interior_is_for_dielectrics_without_absorption():
+    for inside, message in [("type: diffuse, interior: {sigma_a: 1, sigma_s: 1}", "a diffuse material has no interior"),
+                            ("type: dielectric, absorption: {color: [0.5, 0.5, 0.5], distance: 1}, "
+                             "interior: {sigma_a: 1, sigma_s: 1}", "give absorption or interior")]:
+        with pytest.raises(SceneError) as exc:
+            parse_scene(glass_scene("ior: 1.5").replace("type: dielectric, ior: 1.5", inside),
+                        ROOT / "scenes" / "inline.yaml")
+        assert message in str(exc.value) and "materials.glass" in str(exc.value), str(exc.value)

@@ -24,7 +24,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..shading.lights import light_uses
-from ..shading.medium import medium_dims, medium_used
+from ..shading.medium import medium_dims, medium_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
 from ..shapes.geometry import shared_vertices
@@ -97,7 +97,8 @@ class Uses:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
-    medium: bool = False            # issue #25: a participating medium fills the scene (mcpt/shading/medium.py)
+    medium: bool = False            # issue #25: some participating medium (mcpt/shading/medium.py)
+    interior_media: bool = False    # issue #25: some dielectric bounds an interior medium
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
@@ -110,7 +111,8 @@ class Uses:
             self, lights=True, single_light=False, area_lights=True, point_lights=True, spot_lights=True,
             directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
-            fresnel_complex=True, one_sided=True, medium=True)
+            fresnel_complex=True, one_sided=True, medium=True,
+            interior_media=True)
 
     @property
     def delta(self) -> bool:
@@ -306,6 +308,7 @@ class Features:
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
             "MCPT_MEDIUM": b(u.medium),
+            "MCPT_MEDIUM_INTERIOR": b(u.medium and u.interior_media),
             "MCPT_DIM_MEDIUM": dims_for(o.bounces),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
@@ -331,7 +334,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False, alpha: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
            sampler: str = "sobol", continuation: bool = True, lights: dict | None = None,
-           medium: bool = False) -> Features:
+           medium: bool = False, interior_media: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``sampling``, ``russian_roulette``, ``counters``, ``continuation``: :class:`Switches`;
@@ -352,7 +355,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         microfacet=has("conductor") and rough, dielectric=has("dielectric"),
         absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,
         smooth_normals=smooth_normals, fresnel_complex=has("conductor") and fresnel_complex,
-        one_sided=one_sided, medium=medium,
+        one_sided=one_sided, medium=medium, interior_media=interior_media,
         # what the render is asked for; what the driver limits; the switches
         bounces=bounces, sampler=sampler, clamp=clamp, variance=variance or alpha, aov=aov, alpha=alpha,
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
@@ -371,7 +374,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         lights=light_uses(world.lights), alpha=world.scene.render.transparent,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
-        one_sided=mt.one_sided_used(ids), medium=medium_used(world.scene), **{"bvh_dense": world.bvh.dense, **flags})
+        one_sided=mt.one_sided_used(ids), **medium_uses(world), **{"bvh_dense": world.bvh.dense, **flags})
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

@@ -83,7 +83,7 @@ def pack(world: World, features: Features) -> Packed:
         uniforms.update(env_uniforms(world.scene.environment, world.lights.envmap,
                                      world.lights.env_pmf if features.nee else 0.0))
     if features.compiled.medium:
-        uniforms.update(medium_uniforms(world.scene.medium))
+        uniforms.update(medium_uniforms(world, features.compiled.interior_media))
     if features.compiled.envmap and world.lights.envmap is not None:
         buffers.update(world.lights.envmap.pack())
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))

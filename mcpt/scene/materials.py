@@ -19,6 +19,7 @@ from pydantic_core import PydanticCustomError
 from ..shading.metals import METALS
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
+from .medium import Medium
 
 
 class ImageTexture(StrictModel):
@@ -91,11 +92,11 @@ MATERIAL_KEYS = {
     "diffuse": ("albedo", "albedo_texture", "two_sided"),
     "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
                   "specular_reflectance", "two_sided"),
-    "dielectric": ("ior", "absorption"),
+    "dielectric": ("ior", "absorption", "interior"),
     "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
-             "metal", "specular_reflectance", "two_sided")
+             "metal", "specular_reflectance", "two_sided", "interior")
 
 
 class Material(StrictModel):
@@ -135,6 +136,8 @@ class Material(StrictModel):
     """Dielectric, plastic: index of refraction (the outside is air, index 1)."""
     absorption: Absorption | None = None
     """Dielectric: Beer-Lambert absorption of light travelling inside (None: clear)."""
+    interior: Medium | None = None
+    """Dielectric: a participating medium filling its (closed) meshes (issue #25, mcpt/scene/medium.py)."""
     fresnel: Literal["schlick", "none", "conductor"] | None = None
     """Conductor: the Fresnel factor, ``schlick`` (F0 = albedo), ``none`` (F = 1) or ``conductor``
     (complex index ``eta``, ``k`` or ``metal``). Default: ``conductor`` when ``eta``/``k``/``metal``
@@ -172,6 +175,8 @@ class Material(StrictModel):
                 )
         if self.albedo is not None and self.albedo_texture is not None:
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
+        if self.absorption is not None and self.interior is not None:  # issue #25
+            raise FieldError(("interior",), "give absorption or interior (its sigma_a absorbs), not both")
         if self.type == "conductor":
             self._check_fresnel()
         return self

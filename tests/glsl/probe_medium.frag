@@ -26,7 +26,7 @@ void main() {
         o_out = floatBitsToUint(vec4(hg_eval(p.x, u_g), 0.0, 0.0, 0.0));
     } else {
         vec3 w;
-        float t = medium_distance(p.y, p.x, w);
+        float t = medium_distance(medium_coeffs(0), p.y, p.x, w);
         o_out = floatBitsToUint(vec4(t, w));
     }
 }
