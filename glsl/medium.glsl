@@ -18,7 +18,7 @@ uniform vec3 u_medium_sigma_t;  // extinction, 1 / world unit (RGB); 0: no scene
 uniform vec3 u_medium_sigma_s;  // scattering, 1 / world unit (RGB)
 uniform float u_medium_g;       // Henyey-Greenstein mean cosine, in (-1, 1)
 
-// A medium's coefficients: the scene's (id 0) or a dielectric's interior (id i > 0).
+// A medium's coefficients: the scene's (id 0), a dielectric's interior (id i > 0) or vacuum (-1).
 struct MediumCoeffs { vec3 sigma_t; vec3 sigma_s; float g; };
 
 #if MCPT_MEDIUM_INTERIOR
@@ -32,6 +32,7 @@ uniform vec3 u_media_sigma_s[MAX_MEDIA];
 #endif
 
 MediumCoeffs medium_coeffs(int id) {
+    if (id < 0) return MediumCoeffs(vec3(0.0), vec3(0.0), 0.0);  // vacuum (inside clear glass)
 #if MCPT_MEDIUM_INTERIOR
     if (id > 0) return MediumCoeffs(u_media_sigma_t[id - 1].rgb, u_media_sigma_s[id - 1], u_media_sigma_t[id - 1].w);
 #endif

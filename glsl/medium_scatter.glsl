@@ -60,15 +60,21 @@ bool medium_vertex(inout Path P, MediumCoeffs c, vec3 x, float t) {
     return roulette(P, k, dim);
 }
 
-// The medium the segment to hit h runs through: an interior medium when it arrives at the back of
-// a dielectric that bounds one (as Beer-Lambert absorption decides, glsl/materials.glsl
-// material_absorb), else the scene's (id 0).
+// The medium the segment to hit h runs through: inside a dielectric (it arrives at its back, the
+// rule of Beer-Lambert absorption, glsl/materials.glsl material_absorb) its interior medium, or
+// vacuum (-1) for clear glass, as Mitsuba 3's medium tracking gives a shape without an interior;
+// else the scene's (id 0).
 int segment_medium(bool found, Hit h, vec3 d) {
-#if MCPT_MEDIUM_INTERIOR
+#if MCPT_MAT_DIELECTRIC
     if (found && dot(tri_normal_raw(h.tri), d) > 0.0) {
         int mat = tri_material(h.tri);
-        for (int i = 0; i < u_media_count; ++i) {
-            if (u_media_material[i] == mat) return i + 1;
+        if (int(texelFetch(u_materials, MCPT_MAT_TEXELS * mat).w) == MAT_DIELECTRIC) {
+#if MCPT_MEDIUM_INTERIOR
+            for (int i = 0; i < u_media_count; ++i) {
+                if (u_media_material[i] == mat) return i + 1;
+            }
+#endif
+            return -1;
         }
     }
 #endif

@@ -224,3 +224,19 @@ def test_interior_is_for_dielectrics_without_absorption():
             parse_scene(glass_scene("ior: 1.5").replace("type: dielectric, ior: 1.5", inside),
                         ROOT / "scenes" / "inline.yaml")
         assert message in str(exc.value) and "materials.glass" in str(exc.value), str(exc.value)
+
+
+def test_clear_glass_in_fog_holds_vacuum(gl):
+    """Inside a glass sphere without an interior, in a scene-wide fog, there is no fog (Mitsuba 3:
+    a shape without an interior medium holds none): the sphere renders as in a fog whose glass
+    holds an interior of (almost) nothing, and unlike one that holds the fog itself (what it
+    rendered before the clear glass was told apart)."""
+    fog = "medium: {albedo: 0.8, density: 0.5}\nlights: [{type: point, position: [1, 2, 2], intensity: [9, 9, 9]}]\n"
+    clear, _ = _render(gl, glass_scene("ior: 1.5") + fog, 64, 6)
+    empty, _ = _render(gl, glass_scene("ior: 1.5, interior: {sigma_a: 0, sigma_s: 1e-9}") + fog, 64, 6)
+    foggy, _ = _render(gl, glass_scene("ior: 1.5, interior: {albedo: 0.8, density: 0.5}") + fog, 64, 6)
+    sphere = (slice(6, 18), slice(6, 18))
+    a, c = clear.image[sphere].mean(), foggy.image[sphere].mean()
+    # One seed, the same random numbers: a medium of nothing changes no pixel, the fog does.
+    assert np.allclose(clear.image, empty.image, rtol=1e-3, atol=1e-5)
+    assert abs(a - c) > 0.02 * a, (a, c)
