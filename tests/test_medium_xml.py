@@ -66,3 +66,53 @@ def test_bad_media_are_one_located_line(tmp_path, medium, integrator, message):
         load_scene(fog_xml(tmp_path, medium, integrator))
     text = str(exc.value)
     assert "\n" not in text and message in text, text
+
+
+SMOKE = ROOT / "bench" / "scenes-xml" / "media-smoke-sphere.xml"
+
+
+def test_interior_media_map_to_dielectrics():
+    """A null BSDF around an interior medium is an index-matched dielectric (ior 1) holding it; a
+    dielectric keeps its ior and gets the interior."""
+    sc = load_scene(SMOKE)
+    by_ior = {round(m.ior, 3): m for m in sc.materials.values() if m.type == "dielectric"}
+    assert set(by_ior) == {1.0, 1.5}  # 1.5 / Mitsuba's air (1.000277)
+    smoke, tint = by_ior[1.0].interior, by_ior[1.5].interior
+    assert smoke.albedo == (0.95, 0.9, 0.8) and smoke.density == (4.0,) * 3 and smoke.g == 0.3
+    assert tint.albedo == (0.6, 0.8, 0.9) and tint.g == 0.0
+
+
+def shape_xml(tmp_path, shape_body: str, sensor_medium: bool = False):
+    path = tmp_path / "shape.xml"
+    path.write_text(f"""<scene version="3.0.0">
+<integrator type="volpath"/>
+<medium type="homogeneous" id="fog"/>
+<medium type="homogeneous" id="smoke"/>
+<sensor type="perspective">{'<ref id="fog"/>' if sensor_medium else ''}
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+</sensor>
+<shape type="sphere">{shape_body}</shape>
+<constant/>
+</scene>
+""".replace("<constant/>", '<emitter type="constant"/>'))
+    return path
+
+
+@pytest.mark.parametrize("body,fog,message", [
+    ('<bsdf type="diffuse"/><ref name="interior" id="smoke"/>', False,
+     ':8: <shape type="sphere">: an interior medium needs a dielectric or null BSDF'),
+    ('<bsdf type="null"/>', False, ':8: <bsdf type="null">: a null BSDF is supported by mcpt only around'),
+    ('<bsdf type="dielectric"/><ref name="interior" id="smoke"/>', True,
+     ':8: <shape type="sphere">: a transmitting shape in a scene with a sensor medium needs'),
+    ('<bsdf type="dielectric"/><ref name="exterior" id="smoke"/>', True,
+     ":8: <shape type=\"sphere\">: mcpt's outside of every shape is the sensor's medium"),
+])
+def test_bad_shape_media_are_one_located_line(tmp_path, body, fog, message):
+    with pytest.raises(SceneError) as exc:
+        load_scene(shape_xml(tmp_path, body, fog))
+    assert "\n" not in str(exc.value) and message in str(exc.value), str(exc.value)
+
+
+def test_glass_in_fog_with_the_fog_outside_is_accepted(tmp_path):
+    sc = load_scene(shape_xml(tmp_path, '<bsdf type="dielectric"/><ref name="exterior" id="fog"/>', True))
+    assert sc.medium is not None and all(m.interior is None for m in sc.materials.values())

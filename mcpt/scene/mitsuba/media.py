@@ -63,3 +63,28 @@ def sensor_medium(sensor: Node, ids: dict[str, Node]) -> Node | None:
     if len(found) > 1:
         raise found[1].error("a second medium in the sensor (mcpt takes one)")
     return found[0] if found else None
+
+
+def shape_material(s, fog: Node | None, ids: dict[str, Node], base) -> dict:
+    """The YAML material of shape ``s`` (shapes.py ShapeOut) given its media: ``base()`` (the BSDF's
+    own mapping), with ``interior`` for a dielectric, or an index-matched dielectric (ior 1) for
+    Mitsuba's ``null`` BSDF around an interior. mcpt's outside of every shape is the scene's
+    medium, so a transmitting shape's ``exterior`` must be the sensor's medium (Mitsuba leaves
+    vacuum behind a shape without one)."""
+    kind = s.bsdf.get("type") if s.bsdf is not None else None
+    interior, exterior = s.media.get("interior"), s.media.get("exterior")
+    transmits = kind in ("dielectric", "null")
+    if exterior is not None and exterior is not fog:
+        raise s.node.error("mcpt's outside of every shape is the sensor's medium: an exterior medium must be it")
+    if fog is not None and transmits and exterior is None:
+        raise s.node.error("a transmitting shape in a scene with a sensor medium needs "
+                           "<ref name=\"exterior\"> to it (Mitsuba leaves vacuum behind the shape)")
+    if interior is None:
+        if kind == "null":
+            raise s.bsdf.error("a null BSDF is supported by mcpt only around an interior medium")
+        return base()
+    if not transmits:
+        raise s.node.error("an interior medium needs a dielectric or null BSDF on its shape in mcpt")
+    mat = {"type": "dielectric", "ior": 1.0} if kind == "null" else base()
+    mat["interior"] = medium(interior, ids)
+    return mat

@@ -20,7 +20,7 @@ from ..mapped import validated
 from ..model import Scene
 from . import bsdfs, camera
 from .emitters import emitter
-from .media import medium, sensor_medium
+from .media import medium, sensor_medium, shape_material
 from .shapes import ShapeOut, shape
 from .xmltree import XmlError, deref, read_tree
 
@@ -88,10 +88,12 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     cam, render = camera.sensor(sensor, objects)
     render["bounces"] = camera.integrator(integrator)
     fog = sensor_medium(sensor, tree.ids)  # issue #25: the camera's medium fills the scene
-    if fog is not None:
+    any_medium = fog or next((m for s in shapes for m in s.media.values()), None)
+    if any_medium is not None:
         kind = integrator.get("type") if integrator is not None else "path"
         if kind not in ("volpath", "volpathmis"):
-            raise fog.error(f"the {kind} integrator ignores media: render this scene with volpath")
+            raise any_medium.error(f"the {kind} integrator ignores media: render this scene with volpath")
+    if fog is not None:
         lines[("medium",)] = fog.line
     lines[("camera",)] = sensor.line
     lines[("render",)] = (integrator or sensor).line
@@ -99,7 +101,8 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     by_value: dict[str, str] = {}
     meshes = []
     for i, s in enumerate(shapes):
-        mat = dict(bsdfs.material(s.bsdf, tree.ids)) if s.bsdf is not None else dict(DEFAULT_MATERIAL)
+        mat = shape_material(s, fog, tree.ids, lambda s=s: (  # issue #25: media on shapes
+            dict(bsdfs.material(s.bsdf, tree.ids)) if s.bsdf is not None else dict(DEFAULT_MATERIAL)))
         if s.bsdf is None and s.radiance is not None:
             mat["albedo"] = [0.0, 0.0, 0.0]  # Mitsuba: an emitter without a BSDF reflects nothing
         if s.radiance is not None and any(s.radiance):
