@@ -122,6 +122,9 @@ def test_non_absorbing_fog_leaves_the_furnace_at_le_over_1_minus_rho(gl, medium,
     that only scatters (any density, any g, chromatic) keeps it so: every estimator, within noise."""
     res, feats = _render(gl, furnace(medium), 64, 5, sampling=sampling)
     assert feats.defines()["MCPT_MEDIUM"] == 1
+    # 1000 bounces on llvmpipe: paths are continued across draws (glsl/path_state.glsl), medium
+    # vertices included; none is dropped.
+    assert feats.continues or feats.loop_limit == 0
     m = res.image.reshape(-1, 3).mean(0)
     se = np.sqrt(res.variance.reshape(-1, 3).mean(0) / (16 * 16))
     assert res.dropped_samples == 0
@@ -240,3 +243,27 @@ def test_clear_glass_in_fog_holds_vacuum(gl):
     # One seed, the same random numbers: a medium of nothing changes no pixel, the fog does.
     assert np.allclose(clear.image, empty.image, rtol=1e-3, atol=1e-5)
     assert abs(a - c) > 0.02 * a, (a, c)
+
+
+def test_a_medium_vertex_writes_its_albedo_and_depth_aovs():
+    """AOVs (glsl/aov.glsl): the first non-specular vertex may be a medium vertex, which writes the
+    single-scattering albedo sigma_s / sigma_t, normal 0 (the host renormalises the mean normal)
+    and (camera ray) its distance. In the fog
+    furnace (camera at the centre of a sphere of radius ~1, gray sigma_t 1) a camera ray scatters
+    before the wall with probability 1 - exp(-1): mean albedo (1 - e^-1) alb + e^-1 0.8, mean depth
+    E[min(t, 1)] = 1 - e^-1."""
+    from mcpt.prepare import prepare
+
+    alb = np.array([0.5, 0.7, 0.9])
+    sc = parse_scene(furnace("{albedo: [0.5, 0.7, 0.9], density: 1.0}", bounces=4), ROOT / "scenes" / "inline.yaml")
+    p = prepare(sc, aovs=("albedo", "normal", "depth"))
+    try:
+        total = sum(sums for _, sums in p.renderer.passes(3, 0, 256))
+        res = p.renderer.result(total, 256, 3, 0.0, 0.0)
+    finally:
+        p.renderer.release()
+    scatter = 1 - math.exp(-1)
+    albedo = res.aovs["albedo"].reshape(-1, 3).mean(0)
+    assert np.allclose(albedo, scatter * alb + (1 - scatter) * 0.8, atol=0.01), albedo
+    depth = float(res.aovs["depth"].mean())
+    assert abs(depth - scatter) < 0.01, depth
