@@ -14,6 +14,9 @@
 #if MCPT_AOV
 #include "aov.glsl"
 #endif
+#if MCPT_MEDIUM_EQUIANGULAR
+#include "medium_equiangular.glsl"
+#endif
 
 #define DIM_MEDIUM(k) (MCPT_DIM_MEDIUM + (k) - 1)
 #define MEDIUM_PASS 0
@@ -21,9 +24,11 @@
 #define MEDIUM_ENDED 2
 
 #if MCPT_NEE
-// Next-event estimation at the medium vertex x of medium c (d: the direction the path arrived
-// along). Its shadow ray crosses medium c only: inside glass, the glass blocks it anyway.
-void medium_next_event(inout Path P, MediumCoeffs c, vec3 x, vec3 d, int dim) {
+// Next-event estimation at the medium vertex x of medium c, t along P's ray (whose surface hit
+// is t_hit away; d: its direction). Its shadow ray crosses medium c only: inside glass, the glass
+// blocks it anyway.
+void medium_next_event(inout Path P, MediumCoeffs c, vec3 x, float t, float t_hit, int dim) {
+    vec3 d = P.ray.d;
     LightSample ls = light_sample(x, dim);
     if (ls.pdf <= 0.0) return;
     float ph = hg_eval(dot(d, ls.wi), c.g);
@@ -32,6 +37,9 @@ void medium_next_event(inout Path P, MediumCoeffs c, vec3 x, vec3 d, int dim) {
 #if MCPT_MIS
         if (!ls.delta) w = power_heuristic(ls.pdf, ph);
 #endif
+#if MCPT_MEDIUM_EQUIANGULAR
+        w *= equiangular_mis_free(c, P.ray.o, d, t_hit, t, ls, x);  // glsl/medium_equiangular.glsl
+#endif
         P.L += P.beta * transmittance(c.sigma_t, ls.dist) * light_radiance(ls) * (ph * w / ls.pdf);
     }
 }
@@ -39,7 +47,7 @@ void medium_next_event(inout Path P, MediumCoeffs c, vec3 x, vec3 d, int dim) {
 
 // A scattering event of medium c at x, t along P's ray (vertex k = P.k): AOVs, a light sample,
 // a phase-function sample (weight p / pdf = 1), roulette. False: the path ends.
-bool medium_vertex(inout Path P, MediumCoeffs c, vec3 x, float t) {
+bool medium_vertex(inout Path P, MediumCoeffs c, vec3 x, float t, float t_hit) {
     int k = P.k;
     vec3 d = P.ray.d;
 #if MCPT_AOV
@@ -49,7 +57,7 @@ bool medium_vertex(inout Path P, MediumCoeffs c, vec3 x, float t) {
     if (max3(P.beta) <= 0.0) return false;
     int dim = DIM_BOUNCE(k);
 #if MCPT_NEE
-    medium_next_event(P, c, x, d, dim);
+    medium_next_event(P, c, x, t, t_hit, dim);
 #endif
     float pdf;
     vec3 wi = hg_sample(d, c.g, rand2_at(dim + DIM_BSDF_UV), pdf);
@@ -94,9 +102,12 @@ int medium_event(inout Path P, bool found, Hit h) {
         P.beta *= transmittance(c.sigma_t, t_hit);
         return MEDIUM_PASS;
     }
+#if MCPT_MEDIUM_EQUIANGULAR
+    if (c.sigma_s != vec3(0.0)) equiangular_direct(P, c, t_hit, k);  // glsl/medium_equiangular.glsl
+#endif
     vec3 w;
     float t = medium_distance(c, t_hit, rand_at(DIM_MEDIUM(k)), w);
     P.beta *= w;
     if (!(t < t_hit)) return MEDIUM_PASS;
-    return medium_vertex(P, c, P.ray.o + t * P.ray.d, t) ? MEDIUM_SCATTERED : MEDIUM_ENDED;
+    return medium_vertex(P, c, P.ray.o + t * P.ray.d, t, t_hit) ? MEDIUM_SCATTERED : MEDIUM_ENDED;
 }

@@ -267,3 +267,54 @@ def test_a_medium_vertex_writes_its_albedo_and_depth_aovs():
     assert np.allclose(albedo, scatter * alb + (1 - scatter) * 0.8, atol=0.01), albedo
     depth = float(res.aovs["depth"].mean())
     assert abs(depth - scatter) < 0.01, depth
+
+
+@pytest.mark.parametrize("t_max", [3.0, 40.0])
+def test_equiangular_sampling_matches_its_pdf(gl, t_max):
+    """Equiangular distances (Kulla & Fajardo 2012) along a segment of length t_max passing a light
+    0.3 from the line at t = 1.2, binned, against the closed form D / ((theta_b - theta_a)
+    (D^2 + (t - delta)^2)) integrated over each bin; the returned q is that density."""
+    d = np.array([0.6, 0.0, 0.8])
+    c = 1.2 * d + np.array([0.0, 0.3, 0.0])
+    n = 1 << 19
+    items = np.stack([uniform_numbers(n, 1, 5)[:, 0], np.full(n, t_max, np.float32)], axis=1)
+    out = probe(gl, 3, items, u_d=tuple(d), u_c=tuple(map(float, c))).astype(np.float64)
+    t, q = out[:, 0], out[:, 1]
+    assert t.min() >= -1e-5 and t.max() <= t_max * (1 + 1e-5)
+    ta, tb = math.atan(-1.2 / 0.3), math.atan((t_max - 1.2) / 0.3)
+    pdf = lambda x: 0.3 / ((tb - ta) * (0.09 + (x - 1.2) ** 2))  # noqa: E731
+    assert np.allclose(q, pdf(t), rtol=1e-3)
+    edges = np.linspace(0.0, t_max, 201)
+    cdf = (np.arctan((edges - 1.2) / 0.3) - ta) / (tb - ta)
+    p, stat, dof = chi2_test(np.histogram(t, edges)[0], np.diff(cdf) * n)
+    assert p > ALPHA, f"t_max {t_max}: chi2 = {stat:.1f} for {dof} dof, p = {p:.3g}"
+
+
+def test_equiangular_and_free_flight_agree_on_a_lamp_in_fog(gl):
+    """A point light in fog over a floor: the image with equiangular sampling (MIS with free-flight
+    vertices) and without it have the same mean, within their noise."""
+    text = """
+camera: {position: [0, 1, 4], look_at: [0, 0, 0], vfov_deg: 40, resolution: [24, 24]}
+render: {bounces: 4}
+materials:
+  floor: {albedo: [0.5, 0.5, 0.5]}
+meshes:
+  - {shape: rectangle, material: floor, transform: {scale: 3, rotate_deg: [-90, 0, 0], translate: [0, -1, 0]}}
+lights:
+  - {type: point, position: [0.3, 0.2, 0.5], intensity: [2, 2, 2]}
+medium: {albedo: [0.9, 0.8, 0.7], density: 0.3, g: 0.4}
+"""
+    world = load_world(parse_scene(text, ROOT / "scenes" / "inline.yaml"))
+    base = for_world(world, variance=True, loop_limit=loop_limit_for(gl.renderer))
+    means, errors = [], []
+    for eq in (True, False):
+        f = base.replace(equiangular=eq)
+        assert f.defines()["MCPT_MEDIUM_EQUIANGULAR"] == int(eq)
+        r = renderer(gl, world, f)
+        try:
+            res = draw(r, 256, 8)
+        finally:
+            r.release()
+        means.append(res.image.reshape(-1, 3).mean(0))
+        errors.append(np.sqrt(res.variance.reshape(-1, 3).mean(0) / res.image[..., 0].size))
+    assert np.all(np.abs(means[0] - means[1]) < 4 * np.hypot(*errors)), (means, errors)

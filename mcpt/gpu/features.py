@@ -24,7 +24,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..shading.lights import light_uses
-from ..shading.medium import medium_dims, medium_uses
+from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
 from ..shapes.geometry import shared_vertices
@@ -176,6 +176,7 @@ class Switches:
     counters: bool = False          # count traversal work per ray (bench/counters.py)
     continuation: bool = True       # off: never continue long paths in further draws
     uber: bool = False              # compile every optional code path (Features.everything)
+    equiangular: bool = True        # issue #25: equiangular samples towards point/spot lights in a medium
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
@@ -243,12 +244,14 @@ class Features:
         return self.compiled.lights and self.bounces >= 1 and self.switches.sampling != "bsdf"
 
     mis = property(lambda self: self.nee and self.switches.sampling == "mis")
+    # issue #25: light-directed distances along medium segments (mcpt/shading/medium.py)
+    equiangular = property(lambda self: equiangular_used(self.compiled, self.nee, self.switches.equiangular))
     rr = property(lambda self: self.switches.russian_roulette and self.bounces > RR_START)
 
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return dims_for(self.bounces) + medium_dims(self.bounces, self.compiled.medium)
+        return dims_for(self.bounces) + medium_dims(self.bounces, self.compiled.medium, self.equiangular)
 
     @property
     def continues(self) -> bool:
@@ -309,6 +312,7 @@ class Features:
             "MCPT_ONE_SIDED": b(u.one_sided),
             "MCPT_MEDIUM": b(u.medium),
             "MCPT_MEDIUM_INTERIOR": b(u.medium and u.interior_media),
+            "MCPT_MEDIUM_EQUIANGULAR": b(self.equiangular),
             "MCPT_DIM_MEDIUM": dims_for(o.bounces),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),

@@ -15,8 +15,9 @@ Two kinds, both homogeneous, both uniforms (no table):
 
 A scene without any medium compiles the code out (MCPT_MEDIUM 0). Random numbers: the free-flight
 distance of the segment to hit k reads dimension ``dims_for(bounces) + k - 1`` (a block after the
-bounces' own, so other scenes keep their layout: mcpt/shading/sampler.py); the medium vertex reads
-bounce k's numbers.
+bounces' own, so other scenes keep their layout: mcpt/shading/sampler.py), its equiangular distance
+(MCPT_MEDIUM_EQUIANGULAR) ``dims_for(bounces) + bounces + k - 1``; the medium vertex reads bounce
+k's numbers.
 """
 
 from __future__ import annotations
@@ -67,9 +68,16 @@ def medium_uses(world) -> dict:
     return {"medium": world.scene.medium is not None or bool(media), "interior_media": bool(media)}
 
 
-def medium_dims(bounces: int, medium: bool) -> int:
-    """Random dimensions the medium adds: one free-flight distance per bounce."""
-    return int(bounces) if medium else 0
+def equiangular_used(uses, nee: bool, switch: bool) -> bool:
+    """Equiangular sampling (Kulla & Fajardo 2012) is compiled in: a medium, light sampling and
+    some point or spot light (the lights whose in-scattering it concentrates), unless switched off."""
+    return bool(switch and nee and uses.medium and (uses.point_lights or uses.spot_lights))
+
+
+def medium_dims(bounces: int, medium: bool, equiangular: bool = False) -> int:
+    """Random dimensions the medium adds: one free-flight distance per bounce (and one
+    equiangular distance per bounce)."""
+    return int(bounces) * (1 + int(equiangular)) if medium else 0
 
 
 def _rgb(v) -> tuple:
