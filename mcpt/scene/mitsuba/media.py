@@ -88,3 +88,22 @@ def shape_material(s, fog: Node | None, ids: dict[str, Node], base) -> dict:
     mat = {"type": "dielectric", "ior": 1.0} if kind == "null" else base()
     mat["interior"] = medium(interior, ids)
     return mat
+
+
+def scene_medium(sensor: Node, shapes, integrator: Node | None, ids: dict[str, Node]) -> Node | None:
+    """The sensor's medium (None: none), after checking that the integrator renders media at all
+    when the sensor or any shape has one."""
+    fog = sensor_medium(sensor, ids)
+    any_medium = fog or next((m for s in shapes for m in s.media.values()), None)
+    if any_medium is not None:
+        kind = integrator.get("type") if integrator is not None else "path"
+        if kind not in ("volpath", "volpathmis"):
+            raise any_medium.error(f"the {kind} integrator ignores media: render this scene with volpath")
+    return fog
+
+
+def add_medium(data: dict, lines: dict, fog: Node | None, ids: dict[str, Node]) -> None:
+    """``data["medium"]`` (and its line) from the sensor's medium, if any."""
+    if fog is not None:
+        data["medium"] = medium(fog, ids)
+        lines[("medium",)] = fog.line

@@ -20,7 +20,7 @@ from ..mapped import validated
 from ..model import Scene
 from . import bsdfs, camera
 from .emitters import emitter
-from .media import medium, sensor_medium, shape_material
+from .media import add_medium, scene_medium, shape_material
 from .shapes import ShapeOut, shape
 from .xmltree import XmlError, deref, read_tree
 
@@ -87,14 +87,7 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     objects = [deref(c, tree.ids) for c in sensor.children if c.tag in ("film", "sampler", "ref")]
     cam, render = camera.sensor(sensor, objects)
     render["bounces"] = camera.integrator(integrator)
-    fog = sensor_medium(sensor, tree.ids)  # issue #25: the camera's medium fills the scene
-    any_medium = fog or next((m for s in shapes for m in s.media.values()), None)
-    if any_medium is not None:
-        kind = integrator.get("type") if integrator is not None else "path"
-        if kind not in ("volpath", "volpathmis"):
-            raise any_medium.error(f"the {kind} integrator ignores media: render this scene with volpath")
-    if fog is not None:
-        lines[("medium",)] = fog.line
+    fog = scene_medium(sensor, shapes, integrator, tree.ids)  # issue #25: the camera's medium
     lines[("camera",)] = sensor.line
     lines[("render",)] = (integrator or sensor).line
     materials: dict[str, dict] = {}
@@ -130,8 +123,7 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
         data["lights"] = lights
     if environment is not None:
         data["environment"] = environment
-    if fog is not None:
-        data["medium"] = medium(fog, tree.ids)
+    add_medium(data, lines, fog, tree.ids)
     return data, lines
 
 
