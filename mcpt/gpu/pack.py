@@ -13,6 +13,7 @@ reads it:
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
     camera     mcpt/shading/camera.py    <-> glsl/camera.glsl (uniforms)
+    medium     mcpt/shading/medium.py    <-> glsl/medium.glsl (uniforms; issue #25)
 
 The integrator's other pieces have host twins that pack no array (a define or a layout only):
 
