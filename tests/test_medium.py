@@ -318,3 +318,26 @@ medium: {albedo: [0.9, 0.8, 0.7], density: 0.3, g: 0.4}
         means.append(res.image.reshape(-1, 3).mean(0))
         errors.append(np.sqrt(res.variance.reshape(-1, 3).mean(0) / res.image[..., 0].size))
     assert np.all(np.abs(means[0] - means[1]) < 4 * np.hypot(*errors)), (means, errors)
+
+
+def test_fog_passes_split_anywhere_add_the_same_numbers():
+    """Resume and the farm add read-backs of pass ranges (mcpt/gpu/render.py passes): in a fog with
+    a spot light (free flight, equiangular, continuation of 100-bounce paths), passes 0-63 in one
+    call and as 0-23 + 24-63 give the same read-backs, bit for bit."""
+    from mcpt.prepare import prepare
+
+    sc = parse_scene(furnace("{albedo: [0.9, 0.8, 0.7], density: 1.0, g: 0.5}", bounces=100).replace(
+        "medium:", "lights: [{type: spot, position: [0, 0.5, 0], look_at: [0, 0, -1], intensity: [3, 3, 3]}]\n"
+        "medium:"), ROOT / "scenes" / "inline.yaml")
+    p = prepare(sc)
+    try:
+        assert p.renderer.features.defines()["MCPT_MEDIUM_EQUIANGULAR"] == 1
+        one = [sums.copy() for _, sums in p.renderer.passes(11, 0, 64, chunk=8)]
+        split = [sums.copy() for _, sums in p.renderer.passes(11, 0, 24, chunk=8)]
+        split += [sums.copy() for _, sums in p.renderer.passes(11, 24, 64, chunk=8)]
+    finally:
+        p.renderer.release()
+    assert len(one) == len(split) == 8
+    for a, b in zip(one, split):
+        np.testing.assert_array_equal(a, b)
+    assert float(sum(s[0, ..., :3].sum() for s in one)) > 0
