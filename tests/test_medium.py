@@ -12,6 +12,7 @@ import pytest
 
 from mcpt.gpu.features import for_world, loop_limit_for
 from mcpt.scene import SceneError, parse_scene
+from mcpt.shading.camera import basis
 from mcpt.shading.medium import MediumError
 from mcpt.shapes.world import load_world
 
@@ -341,3 +342,58 @@ def test_fog_passes_split_anywhere_add_the_same_numbers():
     for a, b in zip(one, split):
         np.testing.assert_array_equal(a, b)
     assert float(sum(s[0, ..., :3].sum() for s in one)) > 0
+
+
+def single_scattering(o, d, c, intensity, sigma_s, sigma_t, g, n=4000):
+    """Radiance scattered once towards o along -d by a homogeneous medium filling space, lit by a
+    point light of intensity I at c: the integral over t of sigma_s Tr(t) p(theta) I Tr(r) / r^2,
+    taken in the equiangular angle (t = delta + D tan(theta), dt / r^2 = dtheta / D) where the
+    integrand is smooth (midpoint rule)."""
+    delta = float(np.dot(c - o, d))
+    D = float(np.linalg.norm(c - o - delta * d))
+    ta = math.atan(-delta / D)
+    th = ta + (np.arange(n) + 0.5) * (math.pi / 2 - ta) / n
+    t, r = delta + D * np.tan(th), D / np.cos(th)
+    cos = (delta - t) / r  # between d and the direction from x to the light
+    phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cos) ** 1.5)
+    return sigma_s * intensity / D * (np.exp(-sigma_t * (t + r)) * phase).sum() * (math.pi / 2 - ta) / n
+
+
+def test_single_scattering_of_a_point_light_matches_its_integral(gl):
+    """bounces 1: a point light in fog that fills space, nothing else in view; each pixel is the
+    single scattering along its camera rays (box filter: 4 x 4 rays a pixel, 24 x 24 in the
+    light's), integrated above."""
+    text = """
+camera: {position: [0, 0, 4], look_at: [0, 0, 0], vfov_deg: 30, resolution: [12, 12]}
+render: {bounces: 1}
+materials:
+  black: {albedo: [0, 0, 0]}
+meshes:
+  - {shape: rectangle, material: black, transform: {scale: 0.01, translate: [0, 0, 9]}}
+lights:
+  - {type: point, position: [0.3, 0.2, 0.5], intensity: [1, 2, 3]}
+medium: {sigma_a: 0.05, sigma_s: 0.2, g: 0.3}
+"""
+    sc = parse_scene(text, ROOT / "scenes" / "inline.yaml")
+    res, feats = _render(gl, text, 256, 12)
+    assert feats.defines()["MCPT_MEDIUM_EQUIANGULAR"] == 1
+    cam = sc.camera
+    f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
+    o, c = np.asarray(cam.position, float), np.array([0.3, 0.2, 0.5])
+    expected = np.zeros((12, 12))
+    for row in range(12):
+        for col in range(12):
+            m = 24 if (row, col) == (4, 7) else 4  # the light's pixel: the integrand peaks (1 / D)
+            sub = (np.arange(m) + 0.5) / m
+            vals = []
+            for a in sub:
+                for b in sub:
+                    sx, sy = 2 * (col + a) / 12 - 1, 1 - 2 * (row + b) / 12
+                    d = f + sx * r + sy * u
+                    vals.append(single_scattering(o, d / np.linalg.norm(d), c, 1.0, 0.2, 0.25, 0.3))
+            expected[row, col] = np.mean(vals)
+    got = res.image / np.array([1.0, 2.0, 3.0])  # the intensity's channels scale it
+    ratio = got[..., 0] / expected
+    se = np.sqrt(res.variance[..., 0])  # each pixel's standard error (red: intensity 1)
+    assert np.all(np.abs(got[..., 0] - expected) < 4 * se + 0.005 * expected), ratio.round(3)
+    assert abs(got.mean() / expected.mean() - 1) < 0.01, got.mean() / expected.mean()
