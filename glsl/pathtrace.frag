@@ -131,6 +131,10 @@ vec3 sample_value(vec3 L) {
 // samples that ended in it, minus what earlier draws already added for the one they continued
 // (telescoping, squares likewise), so a sample's draws sum to its value.
 uniform int u_samples;
+// Draw copies (mcpt/gpu/render.py draw_copies): an image smaller than a few of llvmpipe's 64 x 64
+// tiles, each shaded by one thread, is drawn u_copies times side by side; copy c takes the draw's
+// samples c, c + u_copies, ... and the host adds the copies up, so every core gets work.
+uniform int u_copies;
 
 // What a draw adds to a pixel of the accumulation target (see above).
 struct Tally {
@@ -172,7 +176,7 @@ void tally_sample(inout Tally T, vec3 v) {
 Path sample_start(ivec2 pixel, int pix, int tile_pix, int j) {
     sampler_init(pix, tile_pix, j);
     g_camera_escaped = false;
-    return camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+    return camera_path(camera_sample(pixel));
 }
 
 // The sample in flight is over (ended or dropped): if no vertex gave its AOVs, it adds zeros.
@@ -184,21 +188,23 @@ void sample_over(inout Path P) {
 
 void main() {
     ivec2 frag = ivec2(gl_FragCoord.xy);
-    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
+    int copy = frag.x / u_resolution.x;
+    ivec2 pixel = ivec2(frag.x - copy * u_resolution.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
     ivec2 local = pixel - u_tile.xy;
     int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
     Path P;
-    int j = 0;
+    int j = copy;
+    if (j >= u_samples) discard;  // a copy with no sample in this draw adds nothing
 #if MCPT_CONTINUE
     if (u_continue != 0) {
         if (!path_stored(frag)) discard;  // finished in an earlier draw
         P = path_load(frag, j);
         sampler_init(pix, tile_pix, j);
     } else {
-        P = sample_start(pixel, pix, tile_pix, 0);
+        P = sample_start(pixel, pix, tile_pix, j);
     }
 #else
-    P = sample_start(pixel, pix, tile_pix, 0);
+    P = sample_start(pixel, pix, tile_pix, j);
 #endif
     Tally T = tally_start(sample_value(P.L));  // what earlier draws added for this sample
     bool unfinished = false;
@@ -210,7 +216,8 @@ void main() {
         if (path_step(P)) continue;
         sample_over(P);
         tally_sample(T, sample_value(P.L));
-        if (++j >= u_samples) break;
+        j += u_copies;
+        if (j >= u_samples) break;
         P = sample_start(pixel, pix, tile_pix, j);
     }
     // llvmpipe's limiter ended the loop itself (a bounce took more than the rest of the budget,
@@ -218,14 +225,15 @@ void main() {
     // (The compiler knows how the loop's breaks leave j, so the counter, not j, tells.)
     if (!unfinished && loop_limit_reached()) {
         sample_over(P);
-        tally_drop(T, float(u_samples - j));
+        tally_drop(T, float((u_samples - j + u_copies - 1) / u_copies));  // this copy's rest
     }
     if (unfinished) {
         vec3 v = sample_value(P.L);
         if (non_finite(v)) {  // not worth continuing: dropped now
             sample_over(P);
             tally_drop(T, 1.0);
-            unfinished = ++j < u_samples;
+            j += u_copies;
+            unfinished = j < u_samples;
             if (unfinished) P = sample_start(pixel, pix, tile_pix, j);
         } else {
             tally_add(T, v);

@@ -397,3 +397,19 @@ medium: {sigma_a: 0.05, sigma_s: 0.2, g: 0.3}
     se = np.sqrt(res.variance[..., 0])  # each pixel's standard error (red: intensity 1)
     assert np.all(np.abs(got[..., 0] - expected) < 4 * se + 0.005 * expected), ratio.round(3)
     assert abs(got.mean() / expected.mean() - 1) < 0.01, got.mean() / expected.mean()
+
+
+def test_a_thin_lens_and_a_medium_read_their_own_numbers(gl):
+    """A thin lens (2 numbers after the bounces') and the medium's free-flight block do not
+    overlap, and the fog furnace stays at 5 seen through the lens."""
+    from mcpt.shading.sampler import dims_for
+
+    text = furnace("{sigma_a: 0, sigma_s: 1.0, g: 0.5}", bounces=200).replace(
+        "resolution: [16, 16]}", "resolution: [16, 16], lens: {focus_distance: 0.8, aperture_radius: 0.05}}")
+    res, feats = _render(gl, text, 64, 5)
+    d = feats.defines()
+    assert d["MCPT_THIN_LENS"] == 1 and d["MCPT_DIM_MEDIUM"] == dims_for(200, True) > dims_for(200)
+    assert feats.random_dims == dims_for(200, True) + 200
+    m = res.image.reshape(-1, 3).mean(0)
+    se = np.sqrt(res.variance.reshape(-1, 3).mean(0) / (16 * 16))
+    assert np.all(np.abs(m - 5.0) < 4 * se + 0.01), (m, se)

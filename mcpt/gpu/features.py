@@ -23,6 +23,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
+from ..scene.animation import camera_moves
+from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
@@ -97,6 +99,9 @@ class Uses:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
+    pixel_filter: int = 0           # 0 box, 1 tent, 2 Gaussian: filter importance sampling (pixel_filter.py)
+    thin_lens: bool = False         # depth of field: a point on the lens per sample (2 more dims)
+    orthographic: bool = False      # parallel camera rays
     medium: bool = False            # issue #25: some participating medium (mcpt/shading/medium.py)
     interior_media: bool = False    # issue #25: some dielectric bounds an interior medium
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
@@ -104,6 +109,7 @@ class Uses:
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
+    camera_moves: bool = False      # issue #26: an animated camera, its eye a uniform (camera.glsl)
 
     def everything(self) -> Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
@@ -251,7 +257,8 @@ class Features:
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return dims_for(self.bounces) + medium_dims(self.bounces, self.compiled.medium, self.equiangular)
+        return (dims_for(self.bounces, self.compiled.thin_lens)
+                + medium_dims(self.bounces, self.compiled.medium, self.equiangular))
 
     @property
     def continues(self) -> bool:
@@ -310,10 +317,14 @@ class Features:
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
+            "MCPT_CAMERA_MOVES": b(u.camera_moves),
+            "MCPT_FILTER": u.pixel_filter,
+            "MCPT_THIN_LENS": b(u.thin_lens),
+            "MCPT_ORTHO": b(u.orthographic),
             "MCPT_MEDIUM": b(u.medium),
             "MCPT_MEDIUM_INTERIOR": b(u.medium and u.interior_media),
             "MCPT_MEDIUM_EQUIANGULAR": b(self.equiangular),
-            "MCPT_DIM_MEDIUM": dims_for(o.bounces),
+            "MCPT_DIM_MEDIUM": dims_for(o.bounces, u.thin_lens),  # after the bounces' (and lens') numbers
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
             "MCPT_ALPHA": b(o.alpha and o.variance),
@@ -379,6 +390,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), **medium_uses(world), **{"bvh_dense": world.bvh.dense, **flags})
+    f = f.replace(**camera_uses(world.scene.camera))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()
@@ -388,4 +400,6 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
                       tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
+        f = f.replace(camera_moves=True)
     return f

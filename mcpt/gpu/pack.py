@@ -8,7 +8,7 @@ reads it:
     tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
     nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
     lights     mcpt/shading/lights.py    <-> glsl/lights.glsl (+ light_punctual)
-    env_texels, env_cdf  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
+    env_texels, env_alias  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
     materials  mcpt/shading/materials.py <-> glsl/materials.glsl
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
@@ -29,7 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..shading.camera import basis
+from ..scene.animation import eye_offset
+from ..shading.camera import camera_uniforms
 from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
@@ -74,10 +75,10 @@ def pack(world: World, features: Features) -> Packed:
     if features.textures and world.textures:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
-    f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
-    uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
-                "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
+    uniforms = {**camera_uniforms(cam), "u_tri_count": world.n_triangles,
                 "u_light_count": world.lights.entries}
+    if features.compiled.camera_moves:  # issue #26: the eye relative to the rebased geometry
+        uniforms["u_cam_eye"] = eye_offset(world.scene)
     if features.compiled.sun_lights:
         uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
     if features.compiled.environment:

@@ -37,7 +37,7 @@ UNITS = {
     "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/shading/texture.py)
     "textures": 9,    # albedo images: headers + sRGB texels (mcpt/shading/texture.py)
     "env_texels": 10,  # environment map radiance + cell pdfs, 1 texel each (mcpt/shading/envmap.py)
-    "env_cdf": 11,     # environment map marginal + conditional CDFs, 4 floats a texel (ditto)
+    "env_alias": 11,   # environment map alias tables (rows, then each row's cells), 2 entries a texel
 }
 
 
@@ -116,7 +116,7 @@ def create_tbo(gl: GLContext, name: str, array: np.ndarray, *, unit: int | None 
     check_size(gl, name, texels, per_item, item)
     if data.size == 0:  # GL needs a non-empty store; shaders never read an empty table
         data = np.zeros((1,) if data.ndim == 1 else (1, 4), data.dtype)
-    buf = gl.ctx.buffer(data.tobytes())
+    buf = gl.ctx.buffer(np.ascontiguousarray(data))  # the array's own memory: no tobytes copy (issue #23)
     tex = ctypes.c_uint()
     gl.fn("glGenTextures", None, ctypes.c_int, ctypes.POINTER(ctypes.c_uint))(1, ctypes.byref(tex))
     tbo = TBO(name, UNITS[name] if unit is None else unit, texels, data.nbytes, buf, tex.value,

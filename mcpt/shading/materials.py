@@ -102,6 +102,10 @@ class MaterialTable:
                 object.__setattr__(self, k, v)
 
     def used(self, ids) -> list[int]:
+        ids = np.asarray(ids).ravel()
+        if ids.size and ids.dtype.kind in "iu" and 0 <= ids.min() and ids.max() < len(self.names):
+            # Counting is one pass over 10^6 triangles; np.unique hashes them (10x slower, issue #23).
+            return np.flatnonzero(np.bincount(ids)).tolist()
         return sorted({int(i) for i in np.unique(ids)})
 
     def rough(self, ids) -> bool:

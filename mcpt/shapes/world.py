@@ -30,7 +30,7 @@ from ..shading.materials import MaterialTable
 from . import geometry
 from .bvh import BVH
 from .bvh_build import build_bvh
-from .dedup import first_of_duplicates
+from .dedup import first_of_repeated_corners
 from .mesh import Mesh, MeshError, assemble, read_geometry
 from .sources import flipped, source_of
 
@@ -112,7 +112,7 @@ def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
     table; positions relative to the camera like the triangles."""
     lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
     radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
-    origin = np.asarray(scene.camera.position, np.float64)
+    origin = np.asarray(scene.origin, np.float64)
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
     return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
                         env_power(scene.environment, envmap, radius), envmap)
@@ -134,7 +134,7 @@ def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:
     if need_uvs and mesh.uvs is None:
         log.warning("%s: material %r has an albedo texture but the mesh has no UVs; "
                     "it reads texture coordinate (0, 0)", spec.file, spec.material)
-    return _rebased(mesh, ids, np.asarray(scene.camera.position, np.float64))
+    return _rebased(mesh, ids, np.asarray(scene.origin, np.float64))
 
 
 def _rebased(mesh: Mesh, ids: np.ndarray, origin: np.ndarray) -> MeshPart:
@@ -153,9 +153,7 @@ def _drop_repeated(tris32: np.ndarray, n_meshes: int):
     dropped (mesh.py does this within a file)."""
     if n_meshes < 2:
         return tris32, slice(None), 0
-    corners = np.ascontiguousarray(tris32.reshape(-1, 3)).view(np.uint32)
-    _, ids = np.unique(corners, axis=0, return_inverse=True)
-    keep = first_of_duplicates(ids.reshape(-1, 3))
+    keep = first_of_repeated_corners(tris32)
     repeated = int(tris32.shape[0] - keep.size)
     if repeated:
         # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one
