@@ -7,6 +7,7 @@
 #include "materials.glsl"
 #include "normals.glsl"
 #include "texture.glsl"
+#include "normal_map.glsl"
 #include "camera.glsl"
 #include "path_state.glsl"
 #include "lights.glsl"
@@ -93,6 +94,7 @@ bool path_step(inout Path P) {
     vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
     vec3 wo = -ray.d;
     vec3 ns = shading_normal(m, h, ng, cos_o, wo);  // normals.glsl
+    if (!normal_map_apply(h, cos_o < 0.0, wo, ns)) return false;  // normal_map.glsl
     m.albedo = albedo_at(m, h);                     // texture.glsl
     if (material_black(m)) return false;  // pure emitter
     vec3 x = tri_point(h.tri, h.bary);
@@ -104,6 +106,7 @@ bool path_step(inout Path P) {
     BsdfSample s;
     if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return false;
     if (!bsdf_sample_side_ok(s, ng)) return false;
+    s.weight *= normal_map_shadow(s.wi);  // normal_map.glsl (1 without normal maps)
     path_scatter(P, s, x, ng, xo);  // path_state.glsl
     return roulette(P, k, dim);     // roulette.glsl
 }

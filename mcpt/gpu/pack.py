@@ -35,6 +35,7 @@ from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
 from ..shading.medium import medium_uniforms
+from ..shading.normal_map import pack_normal_maps, pack_tangents
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
 from ..shapes.geometry import pack_triangles
@@ -43,7 +44,8 @@ from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles"),
+         "tangents": (1, "triangles")}
 
 
 @dataclass(frozen=True)
@@ -75,6 +77,10 @@ def pack(world: World, features: Features) -> Packed:
     if features.textures and world.textures:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
+    if features.normal_maps or features.opacity:  # the map table always (every material is looked up)
+        buffers["normal_maps"] = pack_normal_maps(world.materials.normal_map, world.materials.opacity)
+        if features.normal_maps and world.tangents is not None:
+            buffers["tangents"] = pack_tangents(world.tangents)
     uniforms = {**camera_uniforms(cam), "u_tri_count": world.n_triangles,
                 "u_light_count": world.lights.entries}
     if features.compiled.camera_moves:  # issue #26: the eye relative to the rebased geometry
