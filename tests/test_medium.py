@@ -413,3 +413,25 @@ def test_a_thin_lens_and_a_medium_read_their_own_numbers(gl):
     m = res.image.reshape(-1, 3).mean(0)
     se = np.sqrt(res.variance.reshape(-1, 3).mean(0) / (16 * 16))
     assert np.all(np.abs(m - 5.0) < 4 * se + 0.01), (m, se)
+
+
+def test_the_uber_shader_renders_media_too(gl):
+    """--features all compiles every medium path (scene-wide, interior, equiangular) for any scene:
+    with a scene's medium it gives the fog furnace's 5, and without one (zero coefficients) the
+    clear furnace's 5 as well."""
+    for medium in ("{sigma_a: 0, sigma_s: 1.0, g: 0.5}", None):
+        text = furnace(medium or "{sigma_a: 0, sigma_s: 1.0}", bounces=1000)
+        if medium is None:
+            text = text.split("medium:")[0]
+        world = load_world(parse_scene(text, ROOT / "scenes" / "inline.yaml"))
+        f = for_world(world, variance=True, loop_limit=loop_limit_for(gl.renderer)).everything()
+        d = f.defines()
+        assert d["MCPT_MEDIUM"] == d["MCPT_MEDIUM_INTERIOR"] == d["MCPT_MEDIUM_EQUIANGULAR"] == 1
+        r = renderer(gl, world, f)
+        try:
+            res = draw(r, 32, 2)
+        finally:
+            r.release()
+        m = res.image.reshape(-1, 3).mean(0)
+        se = np.sqrt(res.variance.reshape(-1, 3).mean(0) / (16 * 16))
+        assert res.dropped_samples == 0 and np.all(np.abs(m - 5.0) < 4 * se + 0.01), (medium, m, se)
