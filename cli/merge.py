@@ -3,9 +3,19 @@ into the image one render of the summed spp would give (mcpt/farm/merge.py)."""
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from .group import main, reports_errors
+
+
+def _same_file(a, b) -> bool:
+    """The same file, however named (relative, absolute, a link)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist: the same only if the names resolve alike
+        return os.path.realpath(a) == os.path.realpath(b)
 
 
 @main.command()
@@ -25,6 +35,9 @@ def merge(inputs, outputs, exposure, denoise):
 
     for output in outputs:
         check_output_path(output)
+        if any(_same_file(output, i) for i in inputs):
+            raise click.BadParameter(f"{output} is also an input: merge would replace it (issue "
+                                     "#24); name another output", param_hint="-o")
     image, header, layers = merge_images(list(inputs), denoise=denoise)
     for output in outputs:
         write_image(output, image, header, exposure, layers)

@@ -1,0 +1,78 @@
+"""Issue #24 (hardening, second pass): each failure a hostile tester found, as a test that failed
+before its fix. Numbered as in the issue."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from mcpt.farm.signals import StopSignals
+
+from . import test_farm as farm
+from .test_farm import header, invoke
+
+
+@pytest.fixture
+def folder(tmp_path, monkeypatch):
+    """test_farm's lit floor and box (12x10 pixels) as the working directory."""
+    for name, text in (("floor.obj", farm.FLOOR_OBJ), ("box.obj", farm.BOX_OBJ),
+                       ("light.obj", farm.LIGHT_OBJ), ("scene.yaml", farm.SCENE)):
+        (tmp_path / name).write_text(text)
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+# 1. bounces the shader cannot hold were accepted and rendered as bounces 0
+@pytest.mark.parametrize("args", [["--bounces", "3000000000"], ["--bounces", "4294967296"],
+                                  ["-D", "render.bounces=2147483648"]])
+def test_bounces_beyond_what_the_shader_holds_are_refused(folder, args):
+    r = invoke("scene.yaml", *args, "-o", "b.exr")
+    assert r.exit_code == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "render.bounces" in lines[0] and "16777215" in lines[0], lines
+    assert not (folder / "b.exr").exists()
+
+
+# 3. a merged input counted the seeds after its first as unused
+def test_merge_refuses_a_seed_already_inside_a_merged_input(folder):
+    for seed in (1, 2):
+        assert invoke("scene.yaml", "--seed", str(seed), "--spp", "8", "-o", f"s{seed}.exr").exit_code == 0
+    assert invoke("s1.exr", "s2.exr", "-o", "m12.exr", command="merge").exit_code == 0
+    assert header("m12.exr")["mcpt:seeds"] == "1 2"
+    for other, seed in (("s2.exr", 2), ("s1.exr", 1)):
+        r = invoke("m12.exr", other, "-o", "dbl.exr", command="merge")
+        assert r.exit_code == 2, r.output
+        line = r.stderr.strip()
+        assert f"passes 0..7 of seed {seed} in m12.exr" in line and "0..15" not in line, line
+    assert not (folder / "dbl.exr").exists()
+    # a merge of merges lists every render it holds
+    assert invoke("scene.yaml", "--seed", "3", "--spp", "8", "-o", "s3.exr").exit_code == 0
+    assert invoke("m12.exr", "s3.exr", "-o", "m123.exr", command="merge").exit_code == 0
+    h = header("m123.exr")
+    assert (h["mcpt:seeds"], h["mcpt:merged_spp"], h["mcpt:spp"]) == ("1 2 3", "8 8 8", "24")
+
+
+# 4. an inherited SIG_IGN (nohup, background jobs) was replaced by mcpt's handler
+def test_signals_the_parent_ignores_stay_ignored():
+    old = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        with StopSignals() as s:
+            assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGHUP)
+            assert s.signum is None
+            assert signal.getsignal(signal.SIGTERM) is not signal.SIG_IGN  # the others are caught
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGHUP, old)
+
+
+# 6. merge replaced one of its inputs
+def test_merge_refuses_an_output_that_is_an_input(folder):
+    for seed in (1, 2):
+        assert invoke("scene.yaml", "--seed", str(seed), "--spp", "8", "-o", f"s{seed}.exr").exit_code == 0
+    before = (folder / "s1.exr").read_bytes()
+    r = invoke("s1.exr", "s2.exr", "-o", "m.exr", "-o", f"{folder}/./s1.exr", command="merge")
+    assert r.exit_code == 2 and "is also an input" in r.stderr, r.output
+    assert (folder / "s1.exr").read_bytes() == before and not (folder / "m.exr").exists()
