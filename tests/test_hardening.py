@@ -76,3 +76,44 @@ def test_merge_refuses_an_output_that_is_an_input(folder):
     r = invoke("s1.exr", "s2.exr", "-o", "m.exr", "-o", f"{folder}/./s1.exr", command="merge")
     assert r.exit_code == 2 and "is also an input" in r.stderr, r.output
     assert (folder / "s1.exr").read_bytes() == before and not (folder / "m.exr").exists()
+
+
+# 5. a checkpoint that could not be written ended the render as an internal error, nothing written
+def test_a_checkpoint_name_too_long_is_refused_before_the_render(folder):
+    name = "a" * 232 + ".exr"  # the image's name fits; OUTPUT.state.npz's temporary name does not
+    r = invoke("scene.yaml", "--spp", "8", "--checkpoint", "1000", "-o", name)
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "cannot write the checkpoint" in lines[0], lines
+    assert sorted(p.name for p in folder.iterdir()) == ["box.obj", "floor.obj", "light.obj", "scene.yaml"]
+
+
+def test_a_failed_checkpoint_warns_and_the_render_goes_on(folder, monkeypatch):
+    import errno
+
+    from mcpt.farm import state as st
+
+    calls = []
+
+    def full(path, acc, record):  # the disk is full for the state file, not for the image
+        calls.append(acc.spp)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(st, "save", full)
+    r = invoke("scene.yaml", "--spp", "8", "--checkpoint", "1000", "-o", "a.exr")
+    assert r.exit_code == 0, r.output
+    assert calls == [8] and "checkpoint a.exr.state.npz not written (No space left on device)" in r.stderr
+    assert header("a.exr")["mcpt:spp"] == "8" and not (folder / "a.exr.state.npz").exists()
+
+
+# 7. a --checkpoint render without --resume replaced the passes of the checkpoint already there
+def test_a_checkpoint_is_replaced_only_with_overwrite(folder):
+    assert invoke("scene.yaml", "--spp", "16", "--checkpoint", "1000", "-o", "a.exr").exit_code == 0
+    before = (folder / "a.exr.state.npz").read_bytes()
+    r = invoke("scene.yaml", "--spp", "8", "--checkpoint", "1000", "-o", "a.exr")
+    assert r.exit_code == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--resume" in lines[0] and "--overwrite" in lines[0], lines
+    assert (folder / "a.exr.state.npz").read_bytes() == before and header("a.exr")["mcpt:spp"] == "16"
+    r = invoke("scene.yaml", "--spp", "8", "--checkpoint", "1000", "--overwrite", "-o", "a.exr")
+    assert r.exit_code == 0 and header("a.exr")["mcpt:spp"] == "8", r.output

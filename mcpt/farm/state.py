@@ -99,6 +99,29 @@ def state_path(output: str | Path) -> Path:
     return Path(f"{output}.state.npz")
 
 
+def check_state_path(path: str | Path, *, resume: bool, overwrite: bool) -> Path:
+    """Before any work (issue #24): a checkpoint that could never be written (a name too long for
+    its temporary file, a folder where no file can be created, a state file that cannot be
+    replaced) is one line, not an internal error after the render; and a checkpoint already there
+    is replaced only when asked (``--overwrite``): a render without ``--resume`` would otherwise
+    replace hours of passes with its own."""
+    path = Path(path)
+    if path.exists() and not resume and not overwrite:
+        raise StateError(f"{path}: a checkpoint is already there: --resume carries it on, "
+                         "--overwrite starts again and replaces it")
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise StateError(f"{path}: cannot write the checkpoint in {folder}: "
+                         f"{exc.strerror or exc}") from None
+    if path.exists() and not os.access(path, os.W_OK):  # e.g. immutable (chattr +i)
+        raise StateError(f"{path}: the checkpoint cannot be replaced (not writable)")
+    return path
+
+
 def save(path: str | Path, acc: Accumulator, record: dict) -> None:
     """Write the state atomically (temporary file renamed over ``path``; removed on any failure,
     a signal included, so the previous checkpoint survives intact)."""
