@@ -37,7 +37,6 @@ from .output.layers import finish
 from .output.metadata import header, metadata
 from .prepare import Prepared, prepare
 
-
 log = logging.getLogger("mcpt")
 
 
