@@ -117,3 +117,19 @@ def test_a_checkpoint_is_replaced_only_with_overwrite(folder):
     assert (folder / "a.exr.state.npz").read_bytes() == before and header("a.exr")["mcpt:spp"] == "16"
     r = invoke("scene.yaml", "--spp", "8", "--checkpoint", "1000", "--overwrite", "-o", "a.exr")
     assert r.exit_code == 0 and header("a.exr")["mcpt:spp"] == "8", r.output
+
+
+# 13. a large document without a single alias was refused as an alias bomb (and parsed in
+# quadratic time: the garbage collector's passes over the growing node tree)
+def test_values_written_out_are_not_counted_as_aliases(folder):
+    from mcpt.scene import SceneError, load_scene
+
+    mats = "".join(f"  m{i}: {{albedo: [0.5, 0.5, 0.5]}}\n" for i in range(16_000))  # ~112 000 nodes
+    text = farm.SCENE.replace("materials:\n", "materials:\n" + mats)
+    (folder / "many.yaml").write_text(text)
+    assert len(load_scene(folder / "many.yaml").materials) == 16_003
+    # 11 aliases of a 10 000-value list: 110 000 values added, refused in one line
+    bomb = farm.SCENE + "extra: &a [" + ", ".join(["0"] * 10_000) + "]\nmore: [" + ", ".join(["*a"] * 11) + "]\n"
+    (folder / "bomb.yaml").write_text(bomb)
+    with pytest.raises(SceneError, match="YAML aliases .* add more than 100000 values"):
+        load_scene(folder / "bomb.yaml")
