@@ -16,12 +16,13 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from .farm.state import scene_hash
 from .gpu.context import GLContext, shared_context
 from .gpu.features import Features, for_world, loop_limit_for
 from .gpu.pack import pack
 from .gpu.render import Renderer
 from .output.layers import feature_flags as aov_flags
-from .scene import Scene, load_scene
+from .scene import Scene, SceneError, load_scene
 from .shapes.world import World, load_world
 
 
@@ -41,6 +42,7 @@ class Prepared:
     aovs: tuple = ()              # the AOVs computed (mcpt/output/layers.py computed)
     overrides: tuple = ()         # -D KEY=VALUE applied when the scene file was read
     gl_backend: str | None = None  # as asked (None: $MCPT_GL_BACKEND or auto); gl.backend: the one used
+    scene_hash: str | None = None  # of the files as the world was built from them (farm/state.py)
 
 
 def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
@@ -54,7 +56,15 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
         scene = load_scene(scene, overrides=tuple(overrides))
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
     gl = shared_context(gl_backend)
+    # The hash a checkpoint, an EXR header and every farm worker check is that of the files this
+    # world was built from (issue #24: a mesh edited during a farm render was drawn by the workers
+    # while the header recorded the original): taken before and after reading them, and refused
+    # when they changed in between.
+    digest = scene_hash(scene)
     world = load_world(scene)
+    if scene_hash(scene) != digest:
+        raise SceneError(str(scene.source_path or "<scene>"), None, "",
+                         "a file of the scene changed while it was read; render again")
     flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:
         flags["sampler"] = sampler
@@ -63,4 +73,4 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
         feats = feats.everything()
     renderer = Renderer(gl, feats, pack(world, feats), clamp=clamp)
     return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0, features_mode,
-                    clamp, tuple(aovs), tuple(overrides), gl_backend)
+                    clamp, tuple(aovs), tuple(overrides), gl_backend, digest)

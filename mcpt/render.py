@@ -139,7 +139,7 @@ class _Loop:
         self.spp, self.seed = p.scene.render.spp, p.scene.render.seed
         self.record = st.settings(p.scene, features_mode=p.features_mode, clamp=p.clamp,
                                   sampler=p.features.sampler, aovs=p.aovs,
-                                  samples_per_draw=r.samples_per_draw)
+                                  samples_per_draw=r.samples_per_draw, digest=p.scene_hash)
         self.state_file = st.state_path(opts.outputs[0]) if opts.outputs else None
         self.acc = self._start()
         self.resumed_from = self.acc.spp

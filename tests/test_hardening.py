@@ -133,3 +133,39 @@ def test_values_written_out_are_not_counted_as_aliases(folder):
     (folder / "bomb.yaml").write_text(bomb)
     with pytest.raises(SceneError, match="YAML aliases .* add more than 100000 values"):
         load_scene(folder / "bomb.yaml")
+
+
+# 2. a mesh edited during a farm render: the workers drew the edit, the header the original hash
+def test_the_hash_taken_at_load_is_the_one_workers_check(folder, monkeypatch):
+    from mcpt.farm import worker
+    from mcpt.farm.cluster import job_for
+    from mcpt.farm.state import scene_hash
+    from mcpt.prepare import prepare
+
+    p = prepare(folder / "scene.yaml")
+    loaded = scene_hash(p.scene)  # what the world was built from
+    try:
+        (folder / "box.obj").write_text(farm.BOX_OBJ.replace("0.6", "0.9"))  # edited after load
+        job = job_for(p)
+        assert job["scene_hash"] == loaded
+        with pytest.raises(worker.FarmError, match="not the scene being rendered"):
+            worker._prepared(job)  # this worker reads the edited mesh: refused
+    finally:
+        p.renderer.release()
+        worker._PREPARED.clear()
+
+
+def test_a_file_edited_while_the_world_is_built_is_refused(folder, monkeypatch):
+    from mcpt import prepare as prep
+    from mcpt.scene import SceneError
+
+    real = prep.load_world
+
+    def load_then_edit(scene):
+        world = real(scene)
+        (folder / "box.obj").write_text(farm.BOX_OBJ.replace("0.6", "0.9"))
+        return world
+
+    monkeypatch.setattr(prep, "load_world", load_then_edit)
+    with pytest.raises(SceneError, match="changed while it was read"):
+        prep.prepare(folder / "scene.yaml")

@@ -59,7 +59,7 @@ def job_for(p) -> dict:
             "resolution": [cam.width, cam.height], "gl_backend": p.gl_backend,
             "features_mode": p.features_mode, "clamp": p.clamp, "sampler": p.features.sampler,
             "aovs": list(p.aovs),
-            "scene_hash": scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles],
+            "scene_hash": p.scene_hash or scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles],
             "samples_per_draw": p.renderer.samples_per_draw}
 
 

@@ -65,14 +65,16 @@ def scene_hash(scene) -> str:
 
 
 def settings(scene, *, features_mode: str = "scene", clamp: float | None = None,
-             sampler: str = "sobol", aovs=(), samples_per_draw: int | None = None) -> dict:
+             sampler: str = "sobol", aovs=(), samples_per_draw: int | None = None,
+             digest: str | None = None) -> dict:
     """Everything besides the spp that decides a render's numbers, by name. ``aovs``: the AOVs
     computed (they decide the accumulation targets); recorded only when there are some, so
     checkpoints of plain renders read as before. ``samples_per_draw`` (Renderer.samples_per_draw)
     groups the samples into draws, so it decides the float32 sums' rounding: a checkpoint from a
-    version that drew otherwise (or recorded nothing) is refused rather than resumed off by a bit."""
+    version that drew otherwise (or recorded nothing) is refused rather than resumed off by a bit.
+    ``digest``: the scene_hash taken when the world was built (Prepared.scene_hash), else now."""
     cam, rs = scene.camera, scene.render
-    out = {"scene_hash": scene_hash(scene), "width": cam.width, "height": cam.height,
+    out = {"scene_hash": digest or scene_hash(scene), "width": cam.width, "height": cam.height,
            "bounces": rs.bounces, "seed": rs.seed, "features_mode": features_mode,
            "sampler": sampler, "clamp": None if clamp is None else float(clamp),
            "samples_per_draw": samples_per_draw}
