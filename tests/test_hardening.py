@@ -169,3 +169,30 @@ def test_a_file_edited_while_the_world_is_built_is_refused(folder, monkeypatch):
     monkeypatch.setattr(prep, "load_world", load_then_edit)
     with pytest.raises(SceneError, match="changed while it was read"):
         prep.prepare(folder / "scene.yaml")
+
+
+# 10. farm: Ctrl-C (to the whole process group) printed every worker's traceback, or hung
+def test_ctrl_c_on_a_farm_render_is_one_line(folder):
+    pytest.importorskip("distributed")
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    exe = Path(sys.executable).with_name("mcpt")
+    proc = subprocess.Popen(
+        [str(exe), "render", "scene.yaml", "--spp", "300000", "--workers", "2", "-o", "f.exr",
+         "--progress", "plain"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        env=dict(os.environ, MCPT_PROGRESS_INTERVAL="0.5"))
+    try:
+        for line in proc.stderr:  # the first progress line: workers are drawing
+            if line.startswith("mcpt: progress"):
+                break
+        os.killpg(proc.pid, signal.SIGINT)  # what a terminal's Ctrl-C does
+        _, err = proc.communicate(timeout=90)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    lines = [ln for ln in err.splitlines() if not ln.startswith("mcpt: progress")]
+    assert proc.returncode == 130, err[-3000:]
+    assert lines and len(lines) == 1 and lines[0].startswith("mcpt: interrupted by SIGINT"), lines[:20]
