@@ -98,9 +98,11 @@ def render(scene, opts: Options, signals: StopSignals | None = None) -> Outcome:
 
         version()  # no denoiser: one clear error before minutes of rendering
     if opts.workers or opts.scheduler:
-        from .farm.cluster import require_dask
+        from .farm.cluster import check_workers, require_dask
 
         require_dask()
+        if opts.workers and not opts.scheduler:
+            check_workers(opts.workers)
     p = prepare(scene, spp=opts.spp, bounces=opts.bounces, seed=opts.seed,
                 resolution=opts.resolution, gl_backend=opts.gl_backend,
                 features_mode=opts.features_mode, clamp=opts.clamp, sampler=opts.sampler,

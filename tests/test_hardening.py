@@ -196,3 +196,17 @@ def test_ctrl_c_on_a_farm_render_is_one_line(folder):
     lines = [ln for ln in err.splitlines() if not ln.startswith("mcpt: progress")]
     assert proc.returncode == 130, err[-3000:]
     assert lines and len(lines) == 1 and lines[0].startswith("mcpt: interrupted by SIGINT"), lines[:20]
+
+
+# 11. --workers 1000 started threads until none could start, and ignored SIGTERM
+def test_workers_beyond_the_cores_are_refused_in_one_line(folder):
+    pytest.importorskip("distributed")
+    from mcpt.farm.cluster import check_workers
+
+    cores = len(os.sched_getaffinity(0))
+    check_workers(cores)  # as many as the cores: accepted (memory permitting)
+    r = invoke("scene.yaml", "--workers", str(cores + 1), "-o", "w.exr")
+    assert r.exit_code == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"--workers {cores + 1}: at most {cores}" in lines[0], lines
+    assert not (folder / "w.exr").exists()
