@@ -210,3 +210,26 @@ def test_workers_beyond_the_cores_are_refused_in_one_line(folder):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and f"--workers {cores + 1}: at most {cores}" in lines[0], lines
     assert not (folder / "w.exr").exists()
+
+
+# 12. the host-memory guard counted the float64 sums only (~2.8x below the measured peak) and
+# refused only past half of the machine's memory
+def test_the_memory_guard_covers_the_measured_peak(folder, monkeypatch):
+    import subprocess
+    import sys
+
+    from mcpt.gpu import render as gr
+    from mcpt.gpu.host_memory import host_bytes
+
+    code = ("import resource, sys; from mcpt.cli.main import main; sys.argv = ['mcpt', 'render', "
+            "'scene.yaml', '--resolution', '1024x1024', '--spp', '1', '--aov', "
+            "'albedo,normal,depth,variance', '-o', 'm.exr', '--quiet']\n"
+            "try: main()\nexcept SystemExit: pass\n"
+            "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)")
+    peak = int(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              check=True).stdout.split()[-1])
+    assert peak <= host_bytes(1024, 1024, 4) < 1.5 * peak  # 4 targets: beauty, squares, 2 AOV
+    monkeypatch.setattr(gr, "available_bytes", lambda: 12 * 2**30)
+    gr.check_host_memory(4096, 4096, 1)  # ~2.2 GB measured: accepted
+    with pytest.raises(gr.RenderError, match="16000x16000 .* more than the 12.0 GiB available"):
+        gr.check_host_memory(16000, 16000, 1)  # ~31 GB measured

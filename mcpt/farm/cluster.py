@@ -40,26 +40,13 @@ def require_dask():
 WORKER_BYTES = 256 * 2**20
 
 
-def _available_bytes() -> int | None:
-    """MemAvailable, or the cgroup's limit where lower (a container, a batch job)."""
-    found = []
-    try:
-        with open("/proc/meminfo") as f:
-            found += [int(ln.split()[1]) * 1024 for ln in f if ln.startswith("MemAvailable:")]
-        with open("/sys/fs/cgroup/memory.max") as f:
-            text = f.read().strip()
-        if text.isdigit():
-            found.append(int(text))
-    except OSError:
-        pass
-    return min(found) if found else None
-
-
 def check_workers(n: int) -> None:
     """``--workers N`` within this machine's cores and memory, else one line (issue #24: 1000
     workers printed thousands of "can't start new thread" lines and ignored SIGTERM)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    free = _available_bytes()
+    from ..gpu.host_memory import available_bytes
+
+    free = available_bytes()
     by_memory = max(1, free // WORKER_BYTES) if free is not None else n
     most = min(cores, by_memory)
     if n > most:
