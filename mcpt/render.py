@@ -31,7 +31,7 @@ from .farm import state as st
 from .farm.accumulate import CHUNK, Accumulator
 from .farm.control import Control
 from .farm.signals import StopSignals
-from .output.image import ImageError, check_output_path, write_image
+from .output.image import ImageError, check_output_path, write_images
 from .output.layers import computed as computed_aovs
 from .output.layers import finish
 from .output.metadata import header, metadata
@@ -231,9 +231,7 @@ class _Loop:
                      self.opts.first_pass)
         image, layers, extra = finish(result, self.opts.aovs, self.opts.denoise)
         hdr.update(extra)  # mcpt:aovs lists the layers written (the record, the ones computed)
-        for output in self.opts.outputs:
-            write_image(output, image, hdr, self.opts.exposure, layers=layers)
-        return list(self.opts.outputs)
+        return write_images(self.opts.outputs, image, hdr, self.opts.exposure, layers)
 
 
 def _check_range(opts: Options, spp: int, chunk: int) -> None:

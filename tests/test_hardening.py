@@ -233,3 +233,47 @@ def test_the_memory_guard_covers_the_measured_peak(folder, monkeypatch):
     gr.check_host_memory(4096, 4096, 1)  # ~2.2 GB measured: accepted
     with pytest.raises(gr.RenderError, match="16000x16000 .* more than the 12.0 GiB available"):
         gr.check_host_memory(16000, 16000, 1)  # ~31 GB measured
+
+
+# 9. SIGTERM during merge's write left its temporary file; a signal between the outputs of one
+# render named no file
+def _signal_on_write(monkeypatch, nth: int):
+    """write_exr's ``nth`` call (1-based) is hit by SIGTERM halfway through its temporary file."""
+    from pathlib import Path
+
+    from mcpt.output import image
+
+    real, calls = image.write_exr, []
+
+    def write(path, rgb, metadata=None, layers=None):
+        calls.append(path)
+        if len(calls) != nth:
+            return real(path, rgb, metadata, layers)
+
+        def half(tmp):
+            Path(tmp).write_bytes(b"half an image")
+            os.kill(os.getpid(), signal.SIGTERM)
+        image._atomic(Path(path), half)
+
+    monkeypatch.setattr(image, "write_exr", write)
+
+
+def test_sigterm_during_merge_leaves_no_temporary_file(folder, monkeypatch):
+    for seed in (1, 2):
+        assert invoke("scene.yaml", "--seed", str(seed), "--spp", "8", "-o", f"s{seed}.exr").exit_code == 0
+    (folder / "m.exr").write_bytes(b"old")
+    _signal_on_write(monkeypatch, 1)
+    r = invoke("s1.exr", "s2.exr", "-o", "m.exr", command="merge")
+    assert r.exit_code == 143, r.output
+    assert r.stderr.strip() == "mcpt: interrupted by SIGTERM while writing: m.exr left as it was"
+    assert (folder / "m.exr").read_bytes() == b"old"
+    assert not [p for p in folder.iterdir() if p.name.startswith(".")]
+
+
+def test_a_signal_between_outputs_names_which_is_which(folder, monkeypatch):
+    _signal_on_write(monkeypatch, 2)
+    r = invoke("scene.yaml", "--spp", "8", "-o", "a.exr", "-o", "b.exr", "-o", "c.exr")
+    assert r.exit_code == 143, r.output
+    assert r.stderr.strip() == ("mcpt: interrupted by SIGTERM while writing: b.exr, c.exr left as "
+                                "it was; a.exr written")
+    assert (folder / "a.exr").exists() and not (folder / "b.exr").exists()
