@@ -277,3 +277,26 @@ def test_a_signal_between_outputs_names_which_is_which(folder, monkeypatch):
     assert r.stderr.strip() == ("mcpt: interrupted by SIGTERM while writing: b.exr, c.exr left as "
                                 "it was; a.exr written")
     assert (folder / "a.exr").exists() and not (folder / "b.exr").exists()
+
+
+# 8. the --time check ran when a draw was queued, before its work: --time 2 took 6.6 s
+def test_the_time_check_runs_after_the_draw_has_finished(folder):
+    from mcpt.prepare import prepare
+
+    p = prepare(folder / "scene.yaml", spp=8)
+    r, log = p.renderer, []
+    ctx = p.gl.ctx
+    real = type(ctx).finish
+    try:
+        type(ctx).finish = lambda self: (log.append("finish"), real(self))[1]
+
+        def tick(summed):
+            log.append("tick")
+            return False
+
+        list(r.passes(0, 0, 8, chunk=64, interrupt=tick))
+    finally:
+        type(ctx).finish = real
+        r.release()
+    assert log.count("tick") >= 1
+    assert all(log[i - 1] == "finish" for i, e in enumerate(log) if e == "tick"), log
