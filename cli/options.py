@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 
 import click
@@ -35,6 +36,14 @@ def positive_finite(ctx, param, value):
     return value
 
 
+def no_cache(ctx, param, value):
+    """--no-cache: the set-up cache (mcpt/cache.py) is neither read nor written, in this process
+    and the farm workers it starts (they inherit MCPT_CACHE)."""
+    if value:
+        os.environ["MCPT_CACHE"] = "0"
+    return value
+
+
 def render_options(fn):
     for opt in reversed([
         click.option("--spp", type=int, help="Samples per pixel (overrides the scene)."),
@@ -50,6 +59,9 @@ def render_options(fn):
         click.option("--sampler", type=click.Choice(SAMPLERS), default=SAMPLERS[0], show_default=True,
                      help="Random numbers: 'sobol' padded Owen-scrambled Sobol' (converges faster, "
                           "computed on the GPU); 'independent' uniform numbers uploaded every pass."),
+        click.option("--no-cache", is_flag=True, expose_value=False, callback=no_cache,
+                     help="Build the scene afresh: neither read nor write the set-up cache "
+                          "($MCPT_CACHE_DIR, else ~/.cache/mcpt; MCPT_CACHE=0 does the same)."),
     ]):
         fn = opt(fn)
     return fn

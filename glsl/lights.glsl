@@ -1,17 +1,28 @@
 // Lights and the two ways a path finds them (host side: mcpt/shading/lights.py): a BSDF-sampled
-// ray that hits an emitter (emitted_radiance) and next-event estimation (next_event), combined by
-// multiple importance sampling (Veach 1997, ch. 9; which vertices use which: the "Sampling" note
-// in glsl/pathtrace.frag).
+// ray that hits an emitter (emitted_radiance) or escapes to the environment (env_escaped, in
+// glsl/environment.glsl), and next-event estimation (next_event), combined by multiple importance
+// sampling (Veach 1997, ch. 9; which vertices use which: the "Sampling" note in
+// glsl/pathtrace.frag).
 //
-// One light type today: emissive triangles (area lights), the u_lights table below. A new light
-// type is one new file pair (glsl/light_<type>.glsl beside mcpt/shading/light_<type>.py: its
-// emission, its sample and its pdf) plus one line in each dispatch marked below, and, for a light
-// no ray can hit (a point) or one found by escaping rays (an environment), one line where
-// path_step's ray misses or hits.
+// Light types (issue #20), each compiled only when the scene has one: emissive triangles (area
+// lights, MCPT_LIGHT_AREA), point / spot / directional lights (glsl/light_punctual.glsl: delta
+// lights, found by NEE alone, weight 1; a sun disk, glsl/light_sun.glsl, is not) and the environment
+// (glsl/environment.glsl, MCPT_LIGHT_ENV).
+// All are entries of ONE table u_lights, picked with probability proportional to power. A new light
+// type is one new file pair plus one line in each dispatch marked below.
 #include "path_state.glsl"
 #include "sampler.glsl"
+#include "normal_map.glsl"
 #include "bvh.glsl"
 #include "materials.glsl"
+
+// Entry kinds (mcpt/shading/lights.py KIND_*, mcpt/shading/light_punctual.py KIND_OF).
+#define LIGHT_AREA 0u
+#define LIGHT_POINT 1u
+#define LIGHT_SPOT 2u
+#define LIGHT_DIRECTIONAL 3u
+#define LIGHT_ENV 4u
+#define LIGHT_SUN 5u
 
 // Power heuristic with beta = 2 (Veach 1997, sec. 9.2.4).
 float power_heuristic(float a, float b) {
@@ -19,10 +30,10 @@ float power_heuristic(float a, float b) {
     return a2 / (a2 + b2);
 }
 
-// MIS weight of emission that the ray of P found at hit h (cos_o = dot(n, ray.d) < 0). Weight 1
-// after the camera or a delta bounce, which light sampling cannot imitate; 0 where light sampling
-// alone counts (NEE without MIS).
-float emitter_weight(Path P, Material m, Hit h, float cos_o) {
+// MIS weight of emission that P's ray found, which light sampling would have produced with
+// solid-angle density pdf_light. Weight 1 after the camera or a delta bounce, which light
+// sampling cannot imitate; 0 where light sampling alone counts (NEE without MIS).
+float emitter_mis(Path P, float pdf_light) {
     float w = 1.0;
 #if MCPT_NEE
 #if MCPT_DELTA
@@ -32,8 +43,6 @@ float emitter_weight(Path P, Material m, Hit h, float cos_o) {
 #endif
     if (light_sampled) {
 #if MCPT_MIS
-        // Density with which NEE would have produced this point, as a solid angle.
-        float pdf_light = m.light_pdf_area * h.t * h.t / -cos_o;
         w = power_heuristic(P.pdf_bsdf_prev, pdf_light);
 #else
         w = 0.0;  // NEE-only: light is found by light sampling alone
@@ -43,23 +52,35 @@ float emitter_weight(Path P, Material m, Hit h, float cos_o) {
     return w;
 }
 
-// Emitted radiance at hit h, seen from the front, added to P.L with its MIS weight.
-// Dispatch (emitters a ray can hit): area lights are emissive materials; a new type, one line here.
+// Emitted radiance at hit h (cos_o = dot(n, ray.d) < 0: seen from the front), added to P.L with
+// its MIS weight. Dispatch (emitters a ray can hit): area lights are emissive materials.
 void emitted_radiance(inout Path P, Material m, Hit h, float cos_o) {
     if (cos_o < 0.0 && max(m.emission.r, max(m.emission.g, m.emission.b)) > 0.0) {
-        P.L += P.beta * m.emission * emitter_weight(P, m, h, cos_o);
+        // Density with which NEE would have produced this point, as a solid angle.
+        P.L += P.beta * m.emission * emitter_mis(P, m.light_pdf_area * h.t * h.t / -cos_o);
     }
 }
 
+// A light sampled from a ray origin xo (next-event estimation).
+struct LightSample {
+    vec3 wi;      // unit direction xo -> the light
+    float dist;   // distance to the light along wi, world units (INF: at infinity)
+    vec3 L;       // what arrives along wi: radiance, or I / d^2 of a point light (area: light_radiance)
+    float pdf;    // solid-angle density of wi (0: no contribution); delta lights: the pick probability
+    bool delta;   // a delta light: weight 1, no MIS
+    int tri;      // area light: the emissive triangle (else -1)
+    vec3 y;       // area light: the point on it
+    vec3 n;       // area light: its unit geometric normal (the emitting side)
+};
+
 #if MCPT_NEE
-// Emissive triangles for next-event estimation.
-// One RGBA32UI texel per emissive triangle: (triangle, cdf upper bound bits, pmf bits, 0), picked
-// with probability proportional to emitted power x area. A point is then sampled uniformly on
-// the triangle, so the area density is pmf / area = luminance(Le) / total power.
+// The light table (mcpt/shading/lights.py): one RGBA32UI texel per light, (payload, cdf upper
+// bound bits, pmf bits, kind), then the punctual lights' data texels.
 layout(binding = 3) uniform usamplerBuffer u_lights;
 uniform int u_light_count;
 
-int light_pick(float u, out float pmf) {
+// The entry picked by u, and its probability.
+uvec4 light_pick(float u, out float pmf) {
 #if MCPT_SINGLE_LIGHT
     uvec4 e = texelFetch(u_lights, 0);
 #else
@@ -73,77 +94,109 @@ int light_pick(float u, out float pmf) {
     uvec4 e = texelFetch(u_lights, lo);
 #endif
     pmf = uintBitsToFloat(e.z);
-    return int(e.x);
+    return e;
+}
+#endif
+
+// Dispatch: one #include per light file.
+#if MCPT_NEE && MCPT_LIGHT_AREA
+#include "light_area.glsl"
+#endif
+#if MCPT_LIGHT_SUN
+#include "light_sun.glsl"
+#endif
+#if MCPT_NEE && (MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL || MCPT_LIGHT_SUN)
+#include "light_punctual.glsl"
+#endif
+#if MCPT_LIGHT_ENV
+#include "environment.glsl"
+#endif
+
+#if MCPT_LIGHT_ENV || MCPT_LIGHT_SUN
+// Dispatch (lights that rays leaving the scene find): P's ray, direction d, hit nothing.
+void light_escaped(inout Path P, vec3 d) {
+#if MCPT_LIGHT_ENV
+    env_escaped(P, d);
+#endif
+#if MCPT_LIGHT_SUN
+    sun_escaped(P, d);
+#endif
+}
+#endif
+
+#if MCPT_NEE
+// The sample is on an emissive triangle (constant true where area lights are the only kind).
+bool light_is_area(LightSample ls) {
+#if MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL || MCPT_LIGHT_SUN || MCPT_LIGHT_ENV
+    return ls.tri >= 0;
+#else
+    return true;
+#endif
 }
 
-// Uniform point on a triangle (square-root parametrisation, pbrt-v4 SampleUniformTriangle).
-vec2 sample_triangle_bary(vec2 u) {
-    float su = sqrt(u.x);
-    return vec2(u.y * su, 1.0 - su);  // (b1, b2) for v1, v2
-}
-
-// A point y sampled on a light, seen from a ray origin xo.
-struct LightSample {
-    int tri;      // the emissive triangle
-    float pmf;    // probability of having picked it
-    vec3 y;       // the point on it
-    vec3 n;       // its unit geometric normal (the emitting side)
-    float area2;  // twice its area
-    vec3 wi;      // unit direction xo -> y
-    float d2;     // squared distance xo -> y
-    float cos_l;  // cosine at y towards xo (> 0: y faces xo)
-};
-
-// Dispatch (light sampling): every light is an emissive triangle; a new type, one line here
-// choosing its light_<type>_sample by the picked entry.
+// Dispatch (light sampling): pick an entry, then sample the light of its kind.
 LightSample light_sample(vec3 xo, int dim) {
+    float pmf;
+    uvec4 e = light_pick(rand_at(dim + DIM_LIGHT_PICK), pmf);
     LightSample ls;
-    ls.tri = light_pick(rand_at(dim + DIM_LIGHT_PICK), ls.pmf);
-    vec2 bb = sample_triangle_bary(rand2_at(dim + DIM_LIGHT_UV));
-    ls.y = tri_point(ls.tri, bb);
-    vec3 nl = tri_normal_raw(ls.tri);
-    ls.area2 = length(nl);
-    nl /= ls.area2;
-    ls.n = nl;
-    vec3 dv = ls.y - xo;
-    ls.d2 = dot(dv, dv);
-    float dist = sqrt(ls.d2);
-    ls.wi = dv / dist;
-    ls.cos_l = -dot(nl, ls.wi);
+    ls.tri = -1;
+    ls.delta = false;
+#if MCPT_LIGHT_POINT || MCPT_LIGHT_SPOT || MCPT_LIGHT_DIRECTIONAL || MCPT_LIGHT_SUN
+    if (e.w != LIGHT_AREA && e.w != LIGHT_ENV) {
+        punctual_sample(ls, e, pmf, xo, rand2_at(dim + DIM_LIGHT_UV));
+        return ls;
+    }
+#endif
+#if MCPT_LIGHT_ENV
+    if (e.w == LIGHT_ENV) { env_light_sample(ls, pmf, rand2_at(dim + DIM_LIGHT_UV)); return ls; }
+#endif
+#if MCPT_LIGHT_AREA
+    area_sample(ls, int(e.x), pmf, xo, rand2_at(dim + DIM_LIGHT_UV));
+#endif
     return ls;
 }
 
-// Solid-angle density of the sample (for cos_l > 0): pmf / area, turned by d^2 / cos_l.
-float light_pdf(LightSample ls) { return ls.pmf * (2.0 / ls.area2) * ls.d2 / ls.cos_l; }
+// What arrives along ls.wi (an area light's emission is read only for visible samples).
+vec3 light_radiance(LightSample ls) {
+#if MCPT_LIGHT_AREA
+    if (light_is_area(ls)) return material(tri_material(ls.tri)).emission;
+#endif
+    return ls.L;
+}
 
-vec3 light_emission(LightSample ls) { return material(tri_material(ls.tri)).emission; }
-
-// Nothing between xo and the light point (both offset off their surfaces).
+// Nothing between xo and the light (an area light's point offset off its surface).
 bool light_visible(LightSample ls, vec3 xo) {
-    vec3 yo = offset_ray(ls.y, ls.n);
-    vec3 seg = yo - xo;
-    float seg_len = length(seg);
-    return visible(Ray(xo, seg / seg_len), seg_len);
+    Ray r = Ray(xo, ls.wi);
+    float tmax = ls.dist;
+#if MCPT_LIGHT_AREA
+    if (light_is_area(ls)) {
+        vec3 seg = offset_ray(ls.y, ls.n) - xo;
+        tmax = length(seg);
+        r.d = seg / tmax;
+    }
+#endif
+    return visible(r, tmax);
 }
 
 // Next-event estimation at a vertex with a non-delta lobe (bsdf_has_smooth): one light sample,
-// its contribution added to P.L with the power heuristic's weight (weight 1 without MCPT_MIS).
-// Shading frame as in path_step: ns for the BSDF, ng the geometric side, xo the offset origin.
+// its contribution added to P.L with the power heuristic's weight (weight 1 without MCPT_MIS and
+// for delta lights). Shading frame as in path_step: ns for the BSDF, ng the geometric side, xo
+// the offset origin.
 void next_event(inout Path P, Material m, vec3 ns, vec3 ng, vec3 wo, vec3 xo, int dim) {
     LightSample ls = light_sample(xo, dim);
     float pdf_b;
     vec3 fc = bsdf_eval(m, ns, wo, ls.wi, pdf_b);
-#if MCPT_SMOOTH_NORMALS
+#if MCPT_SMOOTH_NORMALS || MCPT_NORMAL_MAPS
     if (dot(ng, ls.wi) <= 0.0) fc = vec3(0.0);  // below the real surface: no light leaks in
+    fc *= normal_map_shadow(ls.wi);  // normal_map.glsl (1 without normal maps)
 #endif
-    if (ls.cos_l > 0.0 && max(fc.r, max(fc.g, fc.b)) > 0.0) {
-        float pdf_light = light_pdf(ls);
+    if (ls.pdf > 0.0 && max(fc.r, max(fc.g, fc.b)) > 0.0) {
         if (light_visible(ls, xo)) {
             float w = 1.0;
 #if MCPT_MIS
-            w = power_heuristic(pdf_light, pdf_b);
+            if (!ls.delta) w = power_heuristic(ls.pdf, pdf_b);
 #endif
-            P.L += P.beta * fc * light_emission(ls) * (w / pdf_light);
+            P.L += P.beta * fc * light_radiance(ls) * (w / ls.pdf);
         }
     }
 }

@@ -7,6 +7,7 @@
 #include "materials.glsl"
 #include "normals.glsl"
 #include "texture.glsl"
+#include "normal_map.glsl"
 #include "camera.glsl"
 #include "path_state.glsl"
 #include "lights.glsl"
@@ -21,8 +22,11 @@ uniform float u_clamp;   // biased: largest allowed sample component (off unless
 #endif
 
 layout(location = 0) out vec4 o_color;
+// Transparent film (MCPT_ALPHA): the sample in flight's camera ray left the scene. A continued
+// sample had hit something (its path went on), so the flag starts false after a load too.
+bool g_camera_escaped = false;
 #if MCPT_VARIANCE
-layout(location = 1) out vec4 o_square;  // per-pixel sum of squares -> variance of the mean
+layout(location = 1) out vec4 o_square;  // per-pixel sum of squares -> variance of the mean; a: coverage
 #endif
 // AOVs (glsl/aov.glsl): the two targets after the beauty's (GLSL 4.30 wants literal locations).
 #if MCPT_AOV && MCPT_VARIANCE
@@ -55,7 +59,18 @@ layout(location = 2) out vec4 o_aov_b;
 bool path_step(inout Path P) {
     Hit h;
     Ray ray = P.ray;
-    if (!trace_closest(ray, h)) return false;
+    if (!trace_closest(ray, h)) {
+#if MCPT_ALPHA
+        if (P.k == 1) {  // transparent film: the camera ray sees nothing, not even the sky
+            g_camera_escaped = true;
+            return false;
+        }
+#endif
+#if MCPT_LIGHT_ENV || MCPT_LIGHT_SUN
+        light_escaped(P, ray.d);  // lights.glsl
+#endif
+        return false;
+    }
     int k = P.k;
     Material m = material(tri_material(h.tri));
     vec3 n = normalize(tri_normal_raw(h.tri));
@@ -70,6 +85,7 @@ bool path_step(inout Path P) {
     vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
     vec3 wo = -ray.d;
     vec3 ns = shading_normal(m, h, ng, cos_o, wo);  // normals.glsl
+    if (!normal_map_apply(h, cos_o < 0.0, wo, ns)) return false;  // normal_map.glsl
     m.albedo = albedo_at(m, h);                     // texture.glsl
     if (material_black(m)) return false;  // pure emitter
     vec3 x = tri_point(h.tri, h.bary);
@@ -81,6 +97,7 @@ bool path_step(inout Path P) {
     BsdfSample s;
     if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return false;
     if (!bsdf_sample_side_ok(s, ng)) return false;
+    s.weight *= normal_map_shadow(s.wi);  // normal_map.glsl (1 without normal maps)
     path_scatter(P, s, x, ng, xo);  // path_state.glsl
     return roulette(P, k, dim);     // roulette.glsl
 }
@@ -114,10 +131,11 @@ struct Tally {
     vec3 sum;       // values of the samples, minus what earlier draws added for them
     vec3 sum2;      // squares likewise (MCPT_VARIANCE)
     float dropped;  // samples dropped (alpha)
+    float cover;    // MCPT_ALPHA: samples whose camera ray hit something (transparent film)
     vec3 before;    // what earlier draws already added for the sample in flight
 };
 
-Tally tally_start(vec3 before) { return Tally(vec3(0.0), vec3(0.0), 0.0, before); }
+Tally tally_start(vec3 before) { return Tally(vec3(0.0), vec3(0.0), 0.0, 0.0, before); }
 
 // The sample in flight adds value v: its whole value, or what it has gathered so far when a
 // later draw continues it.
@@ -134,14 +152,21 @@ void tally_drop(inout Tally T, float n) {
 
 // A finished sample of value v; non-finite or cut short by llvmpipe's loop limit: dropped.
 void tally_sample(inout Tally T, vec3 v) {
-    if (non_finite(v) || loop_limit_reached()) tally_drop(T, 1.0);
-    else tally_add(T, v);
+    if (non_finite(v) || loop_limit_reached()) {
+        tally_drop(T, 1.0);
+    } else {
+        tally_add(T, v);
+#if MCPT_ALPHA
+        T.cover += g_camera_escaped ? 0.0 : 1.0;
+#endif
+    }
 }
 
 // Sample j of the draw at this pixel: its random numbers and camera ray.
 Path sample_start(ivec2 pixel, int pix, int tile_pix, int j) {
     sampler_init(pix, tile_pix, j);
-    return camera_path(camera_ray(pixel, rand2_at(DIM_CAMERA)));
+    g_camera_escaped = false;
+    return camera_path(camera_sample(pixel));
 }
 
 // The sample in flight is over (ended or dropped): if no vertex gave its AOVs, it adds zeros.
@@ -206,7 +231,7 @@ void main() {
 #endif
     o_color = vec4(T.sum, T.dropped);
 #if MCPT_VARIANCE
-    o_square = vec4(T.sum2, 0.0);
+    o_square = vec4(T.sum2, T.cover);
 #endif
 #if MCPT_AOV
     o_aov_a = g_aov_a;

@@ -6,6 +6,7 @@
 #define DIM_LIGHT_UV MCPT_DIM_LIGHT_UV
 #define DIM_BSDF_UV MCPT_DIM_BSDF_UV
 #define DIM_RR MCPT_DIM_RR
+#define DIM_LENS DIM_BOUNCE(MCPT_BOUNCES + 1)  // thin lens: after the last bounce's share
 
 #if MCPT_SAMPLER_SOBOL
 #include "sobol.glsl"

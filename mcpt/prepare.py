@@ -2,8 +2,10 @@
 
     read      mcpt.scene.load_scene            YAML -> validated Scene (+ -D and command-line overrides)
     build     mcpt.shapes.world.load_world     meshes, materials, BVH, lights -> World
+              (through mcpt.shapes.world_cache: a scene built before is read back from disk)
     derive    mcpt.gpu.features.for_world      what the world needs -> Features (the define set)
     pack      mcpt.gpu.pack.pack               World + Features -> buffers and uniforms
+              (through mcpt.gpu.pack_cache where the world came through the cache)
     compile   mcpt.gpu.render.Renderer         limits checked, program compiled, buffers uploaded
 
 The render loop (mcpt/render.py) calls :func:`prepare` once per render, a farm worker
@@ -20,10 +22,13 @@ from .farm.state import scene_hash
 from .gpu.context import GLContext, shared_context
 from .gpu.features import Features, for_world, loop_limit_for
 from .gpu.pack import pack
+from .gpu.pack_cache import cached_pack
 from .gpu.render import Renderer
 from .output.layers import feature_flags as aov_flags
 from .scene import Scene, SceneError, load_scene
+from .shading.camera import check_camera
 from .shapes.world import World, load_world
+from .shapes.world_cache import cached_world
 
 
 @dataclass
@@ -48,9 +53,11 @@ class Prepared:
 def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
             gl_backend=None, features_mode: str = "scene", clamp: float | None = None,
             feature_flags: dict | None = None, sampler: str | None = None, aovs=(),
-            overrides=()) -> Prepared:
+            overrides=(), cache: bool | None = None) -> Prepared:
     """``aovs``: the AOVs to compute (mcpt/gpu/aov.py; for --denoise include albedo and normal);
-    ``overrides``: ``-D KEY=VALUE`` strings, applied when ``scene`` is a file to read."""
+    ``overrides``: ``-D KEY=VALUE`` strings, applied when ``scene`` is a file to read; ``cache``:
+    read and keep the built world in the on-disk cache (mcpt/cache.py; None: unless
+    ``MCPT_CACHE=0``)."""
     t0 = time.perf_counter()
     if not isinstance(scene, Scene):
         scene = load_scene(scene, overrides=tuple(overrides))
@@ -61,16 +68,17 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     # while the header recorded the original): taken before and after reading them, and refused
     # when they changed in between.
     digest = scene_hash(scene)
-    world = load_world(scene)
+    world = cached_world(scene, load_world, cache)
     if scene_hash(scene) != digest:
         raise SceneError(str(scene.source_path or "<scene>"), None, "",
                          "a file of the scene changed while it was read; render again")
+    check_camera(scene, world.tris)
     flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:
         flags["sampler"] = sampler
     feats = for_world(world, clamp=clamp is not None, **flags)
     if features_mode == "all":
         feats = feats.everything()
-    renderer = Renderer(gl, feats, pack(world, feats), clamp=clamp)
+    renderer = Renderer(gl, feats, cached_pack(world, feats, pack, cache), clamp=clamp)
     return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0, features_mode,
                     clamp, tuple(aovs), tuple(overrides), gl_backend, digest)

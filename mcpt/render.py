@@ -231,7 +231,8 @@ class _Loop:
                      self.opts.first_pass)
         image, layers, extra = finish(result, self.opts.aovs, self.opts.denoise)
         hdr.update(extra)  # mcpt:aovs lists the layers written (the record, the ones computed)
-        return write_images(self.opts.outputs, image, hdr, self.opts.exposure, layers)
+        return write_images(self.opts.outputs, image, hdr, self.opts.exposure, layers,
+                            alpha=result.alpha)
 
 
 def _check_range(opts: Options, spp: int, chunk: int) -> None:

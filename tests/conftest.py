@@ -1,4 +1,5 @@
 import os
+import tempfile
 from functools import lru_cache
 from pathlib import Path
 
@@ -19,6 +20,9 @@ FURNACE_REF = DATA / "scenes-ref" / "furnace"   # scene.json with the analytic v
 
 # mcpt.bench reads reference scenes from $MCPT_SHARED: the session's bench runs read tests/data.
 os.environ["MCPT_SHARED"] = str(DATA)
+# The set-up cache (mcpt/cache.py) of the test session lives in a folder of its own, never in the
+# user's cache: tests see cold and warm set-ups of their own making only.
+os.environ["MCPT_CACHE_DIR"] = tempfile.mkdtemp(prefix="mcpt-test-cache-")
 
 
 @pytest.fixture(scope="session")

@@ -273,9 +273,10 @@ def test_yaml_alias_bomb_fails_fast_in_one_line(folder):
 
 
 def test_misspelt_key_is_named_with_a_suggestion(folder):
-    """Issue #10: `fov` for `vfov_deg` names the unknown key and suggests the missing one."""
+    """Issue #10: `fov` for `vfov_deg` names the unknown key and suggests the nearest one (since
+    issue #22 `fov_deg`, the field of view along `fov_axis`)."""
     line = assert_fails_cleanly(invoke(scene_with(folder, "  vfov_deg: 60", "  fov: 60"), "-o", "out.exr"),
-                                folder, "camera.fov", "unknown key 'fov'", "did you mean 'vfov_deg'")
+                                folder, "camera.fov", "unknown key 'fov'", "did you mean 'fov_deg'")
     assert "missing" not in line
 
 

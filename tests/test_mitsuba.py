@@ -277,7 +277,7 @@ REFUSALS = [
     ('<shape type="sphere"><bsdf type="roughplastic"/></shape>',
      r'<bsdf type="roughplastic">: not supported by mcpt \(supported: diffuse'),
     ('<shape type="bsplinecurve"/>', r'<shape type="bsplinecurve">: not supported by mcpt'),
-    ('<emitter type="envmap"/>', r'<emitter type="envmap">: not supported by mcpt'),
+    ('<emitter type="projector"/>', r'<emitter type="projector">: not supported by mcpt'),
     ('<integrator type="aov"/><shape type="sphere"/>',
      r'<integrator type="aov">: not supported by mcpt: its image differs'),
     ('<shape type="sphere"><ref id="nothing"/></shape>', r"<ref id=\"nothing\">: unknown reference id 'nothing'"),

@@ -23,6 +23,9 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
+from ..scene.animation import camera_moves
+from ..shading.camera import camera_uses
+from ..shading.lights import light_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
 from ..shapes.geometry import shared_vertices
@@ -73,8 +76,16 @@ def samples_per_draw(width: int, height: int) -> int:
 class Uses:
     """What the scene uses: which code and which buffers it needs (from the world alone)."""
 
-    lights: bool = True             # any emissive triangle (NEE needs one)
-    single_light: bool = False      # exactly one emissive triangle: no light CDF search
+    lights: bool = True             # any light (NEE needs one)
+    single_light: bool = False      # exactly one light: no light CDF search
+    # issue #20: the light types present (mcpt/shading/lights.py light_uses), each compiled alone
+    area_lights: bool = True        # emissive triangles
+    point_lights: bool = False
+    spot_lights: bool = False
+    directional_lights: bool = False
+    sun_lights: bool = False        # a directional light with a disk (not delta: escaping rays see it)
+    environment: bool = False       # an environment (constant, or a map:)
+    envmap: bool = False            # an environment map (glsl/envmap.glsl, TBO units 10-11)
     bvh: bool = True                # False: brute-force loop over all triangles
     bvh_dense: bool = False         # wide-leaf traversal for heavily overlapping trees (bvh.py BVH.dense)
     diffuse: bool = True            # Lambertian material present
@@ -87,18 +98,26 @@ class Uses:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
+    normal_maps: bool = False       # some material has a normal map: tangent and map buffers
+    opacity: bool = False           # some material has an opacity texture: any-hit test in traversal
+    pixel_filter: int = 0           # 0 box, 1 tent, 2 Gaussian: filter importance sampling (pixel_filter.py)
+    thin_lens: bool = False         # depth of field: a point on the lens per sample (2 more dims)
+    orthographic: bool = False      # parallel camera rays
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
+    camera_moves: bool = False      # issue #26: an animated camera, its eye a uniform (camera.glsl)
 
     def everything(self) -> Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
         return dataclasses.replace(
-            self, lights=True, single_light=False, bvh=True, diffuse=True, conductor=True, microfacet=True,
-            dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
-            fresnel_complex=True, one_sided=True)
+            self, lights=True, single_light=False, area_lights=True, point_lights=True, spot_lights=True,
+            directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
+            microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
+            fresnel_complex=True, one_sided=True, normal_maps=True,
+            opacity=True)
 
     @property
     def delta(self) -> bool:
@@ -132,6 +151,7 @@ class Options:
     sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
     clamp: bool = False             # biased firefly clamp, off unless asked for
     variance: bool = False          # also accumulate squares (per-pixel variance: --aov variance)
+    alpha: bool = False             # transparent film: coverage in the squares target's alpha (needs variance)
     aov: bool = False               # albedo, normal, depth targets (glsl/aov.glsl, --aov, --denoise)
 
     def __post_init__(self):
@@ -219,6 +239,8 @@ class Features:
     bvh = property(lambda self: self.compiled.bvh)
     bvh_dense = property(lambda self: self.compiled.bvh_dense)
     textures = property(lambda self: self.compiled.textures)
+    normal_maps = property(lambda self: self.compiled.normal_maps)
+    opacity = property(lambda self: self.compiled.opacity)
     smooth_normals = property(lambda self: self.compiled.smooth_normals)
     material_texels = property(lambda self: self.compiled.material_texels)
 
@@ -233,7 +255,7 @@ class Features:
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return dims_for(self.bounces)
+        return dims_for(self.bounces, self.compiled.thin_lens)
 
     @property
     def continues(self) -> bool:
@@ -265,6 +287,13 @@ class Features:
             "MCPT_MIS": b(self.mis),
             "MCPT_LIGHTS": b(u.lights),
             "MCPT_SINGLE_LIGHT": b(u.single_light),
+            "MCPT_LIGHT_AREA": b(u.area_lights),
+            "MCPT_LIGHT_POINT": b(u.point_lights),
+            "MCPT_LIGHT_SPOT": b(u.spot_lights),
+            "MCPT_LIGHT_DIRECTIONAL": b(u.directional_lights),
+            "MCPT_LIGHT_SUN": b(u.sun_lights),
+            "MCPT_LIGHT_ENV": b(u.environment),
+            "MCPT_ENVMAP": b(u.environment and u.envmap),
             "MCPT_RR": b(self.rr),
             "MCPT_RR_START": RR_START,
             "MCPT_BVH": b(u.bvh),
@@ -285,8 +314,15 @@ class Features:
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
+            "MCPT_NORMAL_MAPS": b(u.normal_maps),
+            "MCPT_OPACITY": b(u.opacity),
+            "MCPT_CAMERA_MOVES": b(u.camera_moves),
+            "MCPT_FILTER": u.pixel_filter,
+            "MCPT_THIN_LENS": b(u.thin_lens),
+            "MCPT_ORTHO": b(u.orthographic),
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
+            "MCPT_ALPHA": b(o.alpha and o.variance),
             "MCPT_AOV": b(o.aov),
             "MCPT_LOOP_LIMIT": self.limits.loop_limit,
             "MCPT_COUNTERS": b(self.switches.counters),
@@ -304,31 +340,34 @@ class Features:
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
+           normal_maps: bool = False, opacity: bool = False,
            sampling: str = "mis", russian_roulette: bool = True,
-           bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False,
+           bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False, alpha: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
-           sampler: str = "sobol", continuation: bool = True) -> Features:
+           sampler: str = "sobol", continuation: bool = True, lights: dict | None = None) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``sampling``, ``russian_roulette``, ``counters``, ``continuation``: :class:`Switches`;
     ``material_types``: the material types some triangle uses; ``rough``: some conductor has
     roughness >= 0.001; ``absorption``: some dielectric absorbs; ``textures`` / ``smooth_normals``:
     some used material has an albedo texture / smooth shading normals; ``fresnel_complex``: some
-    conductor has ``fresnel: conductor``; ``one_sided``: some material has ``two_sided: false``.
+    conductor has ``fresnel: conductor``; ``one_sided``: some material has ``two_sided: false``;
+    ``lights``: the light fields of Uses (mcpt/shading/lights.py light_uses; absent: ``n_emissive``
+    area lights).
     """
     use_bvh = (n_triangles >= BVH_MIN_TRIANGLES) if bvh is None else bvh
     tri_const = n_triangles if not use_bvh and 0 < n_triangles <= TRI_CONST_MAX else 0
     has = material_types.__contains__
     return Features.of(
         # what the scene uses
-        lights=n_emissive > 0, single_light=n_emissive == 1, bvh=use_bvh, bvh_dense=bvh_dense,
+        **(lights or {"lights": n_emissive > 0, "single_light": n_emissive == 1}), bvh=use_bvh, bvh_dense=bvh_dense,
         tri_const=tri_const, diffuse=has("diffuse"), conductor=has("conductor"),
         microfacet=has("conductor") and rough, dielectric=has("dielectric"),
         absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,
         smooth_normals=smooth_normals, fresnel_complex=has("conductor") and fresnel_complex,
-        one_sided=one_sided,
+        one_sided=one_sided, normal_maps=normal_maps, opacity=opacity,
         # what the render is asked for; what the driver limits; the switches
-        bounces=bounces, sampler=sampler, clamp=clamp, variance=variance, aov=aov,
+        bounces=bounces, sampler=sampler, clamp=clamp, variance=variance or alpha, aov=aov, alpha=alpha,
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
                                                              traced=not tri_const, n_lights=n_emissive),
         sampling=sampling, russian_roulette=russian_roulette, counters=counters, continuation=continuation)
@@ -341,10 +380,13 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     used = {mt.types[i] for i in mt.used(ids)}
     f = derive(
         bounces=world.scene.render.bounces if bounces is None else bounces,
-        n_triangles=world.n_triangles, n_emissive=world.lights.count, material_types=used,
+        n_triangles=world.n_triangles, n_emissive=world.lights.entries, material_types=used,
+        lights=light_uses(world.lights), alpha=world.scene.render.transparent,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
-        one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
+        one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids),
+        opacity=mt.cut_out(ids), **{"bvh_dense": world.bvh.dense, **flags})
+    f = f.replace(**camera_uses(world.scene.camera))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()
@@ -354,4 +396,6 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
                       tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
+        f = f.replace(camera_moves=True)
     return f

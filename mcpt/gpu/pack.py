@@ -7,7 +7,8 @@ reads it:
 
     tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
     nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
-    lights     mcpt/shading/lights.py    <-> glsl/lights.glsl
+    lights     mcpt/shading/lights.py    <-> glsl/lights.glsl (+ light_punctual)
+    env_texels, env_alias  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
     materials  mcpt/shading/materials.py <-> glsl/materials.glsl
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
@@ -27,8 +28,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..shading.camera import basis
+from ..scene.animation import eye_offset
+from ..shading.camera import camera_uniforms
+from ..shading.environment import env_uniforms
+from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
+from ..shading.normal_map import pack_normal_maps, pack_tangents
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
 from ..shapes.geometry import pack_triangles
@@ -37,7 +42,8 @@ from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-         "lights": (1, "emissive triangles"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles"),
+         "tangents": (1, "triangles")}
 
 
 @dataclass(frozen=True)
@@ -69,9 +75,20 @@ def pack(world: World, features: Features) -> Packed:
     if features.textures and world.textures:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
-    f, r, u = basis(cam.position, cam.look_at, cam.up, cam.vfov_deg, cam.width, cam.height)
-    uniforms = {"u_cam_forward": tuple(f), "u_cam_right": tuple(r), "u_cam_up": tuple(u),
-                "u_resolution": (cam.width, cam.height), "u_tri_count": world.n_triangles,
-                "u_light_count": world.lights.count}
+    if features.normal_maps or features.opacity:  # the map table always (every material is looked up)
+        buffers["normal_maps"] = pack_normal_maps(world.materials.normal_map, world.materials.opacity)
+        if features.normal_maps and world.tangents is not None:
+            buffers["tangents"] = pack_tangents(world.tangents)
+    uniforms = {**camera_uniforms(cam), "u_tri_count": world.n_triangles,
+                "u_light_count": world.lights.entries}
+    if features.compiled.camera_moves:  # issue #26: the eye relative to the rebased geometry
+        uniforms["u_cam_eye"] = eye_offset(world.scene)
+    if features.compiled.sun_lights:
+        uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
+    if features.compiled.environment:
+        uniforms.update(env_uniforms(world.scene.environment, world.lights.envmap,
+                                     world.lights.env_pmf if features.nee else 0.0))
+    if features.compiled.envmap and world.lights.envmap is not None:
+        buffers.update(world.lights.envmap.pack())
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))
     return Packed(cam.width, cam.height, buffers, uniforms, per_item)

@@ -66,6 +66,7 @@ class RenderResult:
     random_seconds: float        # generating random numbers on the host (inside render_seconds)
     setup: dict = field(default_factory=dict)  # compile seconds, upload bytes per buffer, tiles
     aovs: dict = field(default_factory=dict)   # features.aov: albedo, normal, depth (mcpt/gpu/aov.py)
+    alpha: np.ndarray | None = None  # (H, W) float32 transparent film: share of camera rays that hit
 
     @property
     def paths_per_second(self) -> float:
@@ -281,8 +282,10 @@ class Renderer:
         setup = dict(self.setup)
         if self.paths is not None:
             setup["continuation_draws"] = self.paths.draws
+        # Transparent film (MCPT_ALPHA): the squares target's alpha counts covering samples.
+        alpha = (total[1, ..., 3] / n[..., 0]).astype(np.float32) if self.features.options.alpha else None
         return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
-                            dropped, seconds, random_seconds, setup, aovs)
+                            dropped, seconds, random_seconds, setup, aovs, alpha)
 
     def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
         """The accumulation targets as (targets, H, W, 4), row 0 at the top; then cleared."""

@@ -30,12 +30,16 @@ GL_R32F = 0x822E
 UNITS = {
     "nodes": 1,       # BVH interior nodes, 4 texels each (mcpt/shapes/bvh.py BVH.gpu_nodes)
     "tris": 2,        # triangle vertices, 3 texels each (mcpt/shapes/geometry.py)
-    "lights": 3,      # emissive triangle table, 1 texel each (mcpt/shading/lights.py)
+    "lights": 3,      # light table, 1 texel per light + punctual data (mcpt/shading/lights.py)
     "materials": 4,   # material table, 2 or 4 texels each (mcpt/shading/materials.py)
     "random": 5,      # per-pass random numbers, 1 float each (mcpt/shading/sampler.py)
     "normals": 7,     # smooth-shading corner normals, 1 texel per triangle (mcpt/shading/normals.py)
     "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/shading/texture.py)
     "textures": 9,    # albedo images: headers + sRGB texels (mcpt/shading/texture.py)
+    "env_texels": 10,  # environment map radiance + cell pdfs, 1 texel each (mcpt/shading/envmap.py)
+    "env_alias": 11,   # environment map alias tables (rows, then each row's cells), 2 entries a texel
+    "tangents": 12,    # normal maps: corner tangents, 1 texel per triangle (mcpt/shading/normal_map.py)
+    "normal_maps": 13,  # normal maps: texture id and scale, 1 texel per material (ditto)
 }
 
 
@@ -114,7 +118,7 @@ def create_tbo(gl: GLContext, name: str, array: np.ndarray, *, unit: int | None 
     check_size(gl, name, texels, per_item, item)
     if data.size == 0:  # GL needs a non-empty store; shaders never read an empty table
         data = np.zeros((1,) if data.ndim == 1 else (1, 4), data.dtype)
-    buf = gl.ctx.buffer(data.tobytes())
+    buf = gl.ctx.buffer(np.ascontiguousarray(data))  # the array's own memory: no tobytes copy (issue #23)
     tex = ctypes.c_uint()
     gl.fn("glGenTextures", None, ctypes.c_int, ctypes.POINTER(ctypes.c_uint))(1, ctypes.byref(tex))
     tbo = TBO(name, UNITS[name] if unit is None else unit, texels, data.nbytes, buf, tex.value,

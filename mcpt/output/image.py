@@ -89,17 +89,20 @@ def _atomic(path: Path, write) -> None:
 
 
 def write_exr(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
-              layers: dict[str, tuple[np.ndarray, str]] | None = None) -> None:
+              layers: dict[str, tuple[np.ndarray, str]] | None = None, alpha: np.ndarray | None = None) -> None:
     """Linear float32 EXR (ZIP). ``layers``: extra channel groups by layer name, each an
     (H, W, len(names)) array and its channel letters, written as ``layer.X`` channels (the
     ``layer.channel`` convention compositors and OIDN tools read), e.g.
-    ``{"albedo": (a, "RGB"), "normal": (n, "XYZ"), "depth": (d, "Z")}``."""
+    ``{"albedo": (a, "RGB"), "normal": (n, "XYZ"), "depth": (d, "Z")}``. ``alpha`` (H, W): an ``A``
+    channel (the RGB is premultiplied by it, EXR's convention: transparent film, issue #20)."""
     import OpenEXR
 
     p = check_output_path(path)
     channels = {"RGB": np.ascontiguousarray(rgb, dtype=np.float32)}  # OpenEXR rejects float64
+    if alpha is not None:
+        channels = {"RGBA": np.ascontiguousarray(np.dstack([rgb, alpha]), dtype=np.float32)}
     for layer, (data, names) in (layers or {}).items():
-        data = np.asarray(data, np.float32).reshape(*channels["RGB"].shape[:2], len(names))
+        data = np.asarray(data, np.float32).reshape(*np.shape(rgb)[:2], len(names))
         for i, c in enumerate(names):
             channels[f"{layer}.{c}"] = np.ascontiguousarray(data[..., i])
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
@@ -113,7 +116,10 @@ def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
     import OpenEXR
 
     with OpenEXR.File(str(path)) as f:
-        return np.array(f.channels()["RGB"].pixels, np.float32), dict(f.header())
+        ch = f.channels()
+        if "RGB" not in ch and "RGBA" in ch:  # a transparent film's image: its colour
+            return np.array(ch["RGBA"].pixels[..., :3], np.float32), dict(f.header())
+        return np.array(ch["RGB"].pixels, np.float32), dict(f.header())
 
 
 def read_exr_channels(path: str | Path, with_header: bool = False):
@@ -126,11 +132,18 @@ def read_exr_channels(path: str | Path, with_header: bool = False):
         return (channels, dict(f.header())) if with_header else channels
 
 
-def write_png(path: str | Path, rgb: np.ndarray, exposure: float = 0.0) -> None:
+def write_png(path: str | Path, rgb: np.ndarray, exposure: float = 0.0, alpha: np.ndarray | None = None) -> None:
+    """sRGB PNG; with ``alpha`` (H, W) an RGBA one, colour un-premultiplied (PNG's convention)."""
     import cv2
 
     p = check_output_path(path)
-    bgr = to_srgb8(rgb, exposure)[..., ::-1]
+    if alpha is None:
+        bgr = to_srgb8(rgb, exposure)[..., ::-1]
+    else:
+        a = np.clip(np.asarray(alpha, np.float64), 0.0, 1.0)[..., None]
+        straight = np.where(a > 0, np.asarray(rgb, np.float64) / np.maximum(a, 1e-12), 0.0)
+        a8 = np.round(a * 255.0).astype(np.uint8)
+        bgr = np.concatenate([to_srgb8(straight, exposure)[..., ::-1], a8], axis=-1)
 
     ok, data = cv2.imencode(".png", np.ascontiguousarray(bgr))
     if not ok:  # pragma: no cover - encoding an 8-bit array in memory does not fail
@@ -147,23 +160,25 @@ def _write_bytes(path: str, data: bytes) -> None:
 
 
 def write_image(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
-                exposure: float = 0.0, layers: dict | None = None) -> None:
-    """EXR (with ``layers``, see :func:`write_exr`) or sRGB PNG (the beauty only) by extension."""
+                exposure: float = 0.0, layers: dict | None = None, alpha: np.ndarray | None = None) -> None:
+    """EXR (with ``layers``, see :func:`write_exr`) or sRGB PNG (the beauty only) by extension;
+    ``alpha``: the transparent film's coverage, written as A / the PNG's alpha."""
+    extra = {} if alpha is None else {"alpha": alpha}  # (opaque renders call as before)
     if Path(path).suffix.lower() == ".exr":
-        write_exr(path, rgb, metadata, layers)
+        write_exr(path, rgb, metadata, layers, **extra)
     else:
-        write_png(path, rgb, exposure)
+        write_png(path, rgb, exposure, **extra)
 
 
 def write_images(paths, rgb: np.ndarray, metadata: dict | None = None, exposure: float = 0.0,
-                 layers: dict | None = None) -> list:
+                 layers: dict | None = None, alpha: np.ndarray | None = None) -> list:
     """Every output of one render or merge, one after the other. A stop signal during the writes
     (signals.Interrupted) leaves the file being written as it was; the exception then records
     which outputs hold the new image and which the old (issue #24: the message named no file)."""
     done: list = []
     try:
         for path in paths:
-            write_image(path, rgb, metadata, exposure, layers=layers)
+            write_image(path, rgb, metadata, exposure, layers=layers, alpha=alpha)
             done.append(str(path))
     except BaseException as exc:
         if hasattr(exc, "signum"):  # signals.Interrupted (output/ does not import farm/)

@@ -41,15 +41,20 @@ from pydantic import (
     model_validator,
 )
 
-from ..shading.camera import orthonormal
+from ..shading.camera import orthonormal, vertical_fov
+from .animation import Animation, check_scene, origin
 from .diagnostics import FieldError, dotted, line_of, to_scene_error
 from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent, scene_path
+from .lens import Lens
+from .lights import Environment, Light
 from .materials import Material
+from .pixel_filter import FilterField, PixelFilter
 from .transform import Transform
 
 
 class Camera(StrictModel):
-    """Pinhole camera.
+    """Camera: pinhole (default), thin lens (``lens``) or orthographic (``projection``); its pixel
+    filter (``filter``). glsl/camera.glsl traces the rays.
 
     Rays follow scene.json's ``camera_ray`` convention: ``f = normalize(look_at - position)``,
     ``r = normalize(cross(f, up))``, ``u = cross(r, f)``; image row 0 is the top.
@@ -61,10 +66,23 @@ class Camera(StrictModel):
     """Point the camera looks at, world units; must differ from ``position``."""
     up: Vec3 = (0.0, 1.0, 0.0)
     """Up hint, world units (any length); must not be parallel to the view direction."""
-    vfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)]
-    """Full vertical field of view in degrees, 0 < vfov_deg < 180."""
+    vfov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
+    """Full vertical field of view in degrees, 0 < vfov_deg < 180 (perspective: this or ``fov_deg``)."""
+    fov_deg: Annotated[float, Field(gt=0.0, lt=180.0)] | None = None
+    """Full field of view in degrees along ``fov_axis``, instead of ``vfov_deg`` (which it sets)."""
+    fov_axis: Literal["x", "y", "diagonal", "smaller", "larger"] | None = None
+    """The axis ``fov_deg`` spans, as Mitsuba's ``fov_axis`` (default ``x``, Mitsuba's)."""
+    projection: Literal["perspective", "orthographic"] = "perspective"
+    """``orthographic``: parallel rays along the view direction over ``ortho_height``."""
+    ortho_height: Annotated[float, Field(gt=0.0)] | None = None
+    """Orthographic only: full height of the view in world units (the width follows the aspect)."""
     resolution: Resolution
     """``[width, height]`` in pixels, each 1..MAX_RESOLUTION."""
+    filter: FilterField = PixelFilter()
+    """Pixel filter (mcpt/scene/pixel_filter.py): ``box`` (default), ``tent``, ``gaussian`` or a
+    mapping ``{type: gaussian, stddev: 0.5}``; drawn by filter importance sampling."""
+    lens: Lens | None = None
+    """Thin lens (mcpt/scene/lens.py): depth of field; absent: a pinhole."""
 
     @property
     def width(self) -> int:
@@ -93,6 +111,27 @@ class Camera(StrictModel):
         # sin of the angle between the two; below ~1e-6 rad the right vector is numerically garbage.
         if np.linalg.norm(np.cross(f / f_len, up / up_len)) < 1e-6:
             raise FieldError(("up",), "up is parallel to the view direction (look_at - position)")
+        return self._check_projection()
+
+    def _check_projection(self) -> Camera:
+        if self.fov_axis is not None and self.fov_deg is None:
+            raise FieldError(("fov_axis",), "fov_axis goes with fov_deg")
+        if self.projection == "perspective":
+            if self.fov_deg is not None:
+                if self.vfov_deg is not None:
+                    raise FieldError(("fov_deg",), "give vfov_deg or fov_deg (with fov_axis), not both")
+                vfov = vertical_fov(self.fov_deg, self.fov_axis or "x", self.width / self.height)
+                object.__setattr__(self, "vfov_deg", vfov)  # frozen: set once, here
+            if self.vfov_deg is None:
+                raise FieldError(("vfov_deg",), "required key is missing (a perspective camera's field of view)")
+            if self.ortho_height is not None:
+                raise FieldError(("ortho_height",), "ortho_height is for projection: orthographic")
+            return self
+        if self.ortho_height is None:
+            raise FieldError(("ortho_height",), "required key is missing (an orthographic camera's view height)")
+        for key in ("vfov_deg", "fov_deg", "lens"):
+            if getattr(self, key) is not None:
+                raise FieldError((key,), f"{key} is for a perspective camera, not an orthographic one")
         return self
 
 
@@ -107,6 +146,10 @@ class RenderSettings(StrictModel):
     between draws, exact up to 2^24, and a 32-bit int; beyond, paths silently ended at once)."""
     seed: Annotated[int, Field(ge=0, lt=2**63)] = 0
     """Random seed, 0 <= seed < 2**63 (fits a signed 64-bit integer)."""
+    transparent: bool = False
+    """Transparent film (issue #20): camera rays that leave the scene see nothing and the image
+    gets an alpha channel (the share of each pixel's camera rays that hit something; EXR ``A``,
+    PNG alpha), for compositing over a plate; the environment still lights the scene."""
 
 
 
@@ -182,6 +225,12 @@ class Scene(StrictModel):
     """Material name -> material (a read-only mapping)."""
     meshes: Annotated[tuple[Mesh, ...], BeforeValidator(list_to_tuple), Field(min_length=1)]
     """The meshes, at least one (required)."""
+    lights: Annotated[tuple[Light, ...], none_is_absent(tuple), BeforeValidator(list_to_tuple)] = ()
+    """Point, spot and directional lights (issue #20, mcpt/scene/lights.py), besides emissive meshes."""
+    environment: Environment | None = None
+    """The light of rays that leave the scene (issue #20); None: black."""
+    animation: Animation | None = None
+    """Keyframes of the camera and mesh transforms (issue #26, mcpt/scene/animation.py)."""
 
     _source: Path | None = PrivateAttr(default=None)
     _lines: dict = PrivateAttr(default_factory=dict)  # key path (strings) -> line, from the reader
@@ -195,7 +244,15 @@ class Scene(StrictModel):
                     ("meshes", i, "material"),
                     f"undefined material {mesh.material!r} (defined: {defined})",
                 )
+        if self.animation is not None:  # issue #26: animated meshes exist
+            check_scene(self)
         return self
+
+    @property
+    def origin(self) -> tuple:
+        """Where the geometry is rebased (mcpt/shapes/world.py): the camera position, or an
+        animation's rest pose (issue #26, mcpt/scene/animation.py origin)."""
+        return origin(self)
 
     def located(self, source: Path, lines: dict) -> Scene:
         """This scene, told the file it was read from and the line of every key (the reader's
@@ -236,6 +293,8 @@ class Scene(StrictModel):
             if value is not None:
                 render[key] = value
         camera = self.camera.model_dump()
+        if camera["fov_deg"] is not None:
+            camera["vfov_deg"] = None  # derived from fov_deg and the (new) aspect again
         if resolution is not None:
             camera["resolution"] = resolution
         data = {
@@ -244,6 +303,9 @@ class Scene(StrictModel):
             "render": render,
             "materials": dict(self.materials),
             "meshes": self.meshes,
+            "lights": self.lights,
+            "environment": self.environment,
+            "animation": self.animation,
         }
         source = self._source if self._source is not None else "<scene>"
         try:

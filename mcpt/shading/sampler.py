@@ -2,18 +2,20 @@
 
 Layout (the shader reads it from the MCPT_DIM* defines, see :func:`layout_defines`)::
 
-    dim 0, 1                 camera jitter inside the pixel (box filter)
+    dim 0, 1                 the film position in the pixel (uniform: box; or the pixel filter's)
     dim 2 + 6 (k - 1) + ...  bounce k = 1..bounces:
         + 0 light choice,  + 1, + 2 point on the light,  + 3, + 4 BSDF direction,  + 5 roulette
+    dim 2 + 6 bounces + 0, 1  the point on the lens (thin lens only, issue #22)
 
-i.e. ``DIMS_CAMERA + DIMS_PER_BOUNCE * (k - 1) + DIM_*``. The same six numbers serve every
-material (glsl/materials.glsl), so no material feature adds dimensions: a vertex without a light
-sample (mirror, glass) leaves + 0..2 unread; glass picks reflection or refraction with + 3 (its
-directions are fixed); plastic picks its lobe with + 3 and rescales it to [0, 1) for the diffuse
-direction ((u - p) / (1 - p) is uniform given u >= p: the "sample reuse" of pbrt-v4), which costs
-a few of the 24 bits, far below what a direction needs. Because the layout does not depend on the
-sampling mode either, NEE-only, BSDF-only and MIS renders with one seed draw the same BSDF
-directions (the tests compare their variances that way).
+i.e. ``DIMS_CAMERA + DIMS_PER_BOUNCE * (k - 1) + DIM_*``. The lens comes last so that a pinhole
+path's numbers stay where they were (a pinhole render is bit-identical with or without it). The
+same six numbers serve every material (glsl/materials.glsl), so no material feature adds
+dimensions: a vertex without a light sample (mirror, glass) leaves + 0..2 unread; glass picks
+reflection or refraction with + 3 (its directions are fixed); plastic picks its lobe with + 3 and
+rescales it to [0, 1) for the diffuse direction ((u - p) / (1 - p) is uniform given u >= p: the
+"sample reuse" of pbrt-v4), which costs a few of the 24 bits, far below what a direction needs.
+Because the layout does not depend on the sampling mode either, NEE-only, BSDF-only and MIS renders
+with one seed draw the same BSDF directions (the tests compare their variances that way).
 
 Samplers (``--sampler``, features.SAMPLERS):
 
@@ -51,11 +53,12 @@ DIM_LIGHT_PICK = 0     # offsets inside one bounce's share
 DIM_LIGHT_UV = 1
 DIM_BSDF_UV = 3
 DIM_RR = 5
+DIMS_LENS = 2          # thin lens: the point on the aperture, after the last bounce
 
 
-def dims_for(bounces: int) -> int:
-    """Random numbers one path of ``bounces`` scattering events may read."""
-    return DIMS_CAMERA + DIMS_PER_BOUNCE * int(bounces)
+def dims_for(bounces: int, lens: bool = False) -> int:
+    """Random numbers one path of ``bounces`` scattering events may read (``lens``: thin lens)."""
+    return DIMS_CAMERA + DIMS_PER_BOUNCE * int(bounces) + (DIMS_LENS if lens else 0)
 
 
 def layout_defines() -> dict[str, int]:

@@ -3,11 +3,20 @@
 A light listed twice would be two lights for next-event estimation but one surface for BSDF hits,
 counting its direct light twice; a duplicated surface also costs BVH space. mcpt/shapes/mesh.py
 drops repeats within a file (by vertex index), mcpt/shapes/world.py across files (by float32 corners).
+
+Both find repeats by hashing each triangle's canonical rotation into one 64-bit key and sorting the
+keys (numpy's sort of 10^6 uint64 takes milliseconds), not by sorting whole rows (np.unique with
+``axis=0``: seconds on 10^6 triangles, issue #23). Keys that collide are compared in full, so the
+result is exact: the same indices the row sort gives.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+# splitmix64's finaliser constants (Steele, Lea & Flood 2014): every input bit reaches every output bit.
+_MIX1, _MIX2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
+_PRIME = np.uint64(0x100000001B3)  # FNV-1a's 64-bit prime: the per-word step of the row hash
 
 
 def first_of_duplicates(faces: np.ndarray) -> np.ndarray:
@@ -17,14 +26,68 @@ def first_of_duplicates(faces: np.ndarray) -> np.ndarray:
         return np.arange(len(faces))
     r = np.argmin(faces, axis=1)
     canon = np.take_along_axis(faces, (r[:, None] + np.arange(3)) % 3, axis=1).astype(np.int64)
-    n = int(canon.max()) + 1
-    if n < 1 << 21:  # one int64 key per triangle
-        _, first = np.unique((canon[:, 0] << 42) | (canon[:, 1] << 21) | canon[:, 2], return_index=True)
-    else:
-        order = np.lexsort((canon[:, 2], canon[:, 1], canon[:, 0]))
-        c = canon[order]
-        new = np.ones(len(c), bool)
-        new[1:] = np.any(c[1:] != c[:-1], axis=1)
-        # lexsort is stable, so the first of each run is the earliest occurrence
-        first = order[new]
-    return np.sort(first)
+    return first_of_rows(canon)
+
+
+def first_of_repeated_corners(tris32: np.ndarray) -> np.ndarray:
+    """Sorted indices of the first occurrence of every (F, 3, 3) float32 triangle, equal bit for
+    bit up to a cyclic rotation of its corners. Corners are ordered as their (x, y, z) uint32
+    words, lexicographically; the rotation starts at the first smallest corner."""
+    w = np.ascontiguousarray(tris32, dtype=np.float32).view(np.uint32)
+    if len(w) < 2:
+        return np.arange(len(w))
+    c0, c1, c2 = w[:, 0], w[:, 1], w[:, 2]
+    # Strictly smaller than the smallest so far: ties keep the first corner (np.argmin's rule).
+    r1 = _less(c1, c0)
+    r2 = _less(c2, np.where(r1[:, None], c1, c0))
+    canon = np.empty((len(w), 3, 3), np.uint32)
+    for j, (a, b, c) in enumerate(((c0, c1, c2), (c1, c2, c0), (c2, c0, c1))):
+        canon[:, j] = np.where(r2[:, None], c, np.where(r1[:, None], b, a))
+    return first_of_rows(canon.reshape(len(w), 9))
+
+
+def _less(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise lexicographic a < b for (N, 3) unsigned words."""
+    return (a[:, 0] < b[:, 0]) | ((a[:, 0] == b[:, 0]) & (
+        (a[:, 1] < b[:, 1]) | ((a[:, 1] == b[:, 1]) & (a[:, 2] < b[:, 2]))))
+
+
+def row_hash(rows: np.ndarray) -> np.ndarray:
+    """(N,) uint64 hash of each row of an (N, K) integer array (wrapping arithmetic)."""
+    h = np.full(len(rows), 0xCBF29CE484222325, np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(rows.shape[1]):  # a column at a time: no (N, K) uint64 copy
+            h ^= rows[:, k].astype(np.uint64)
+            h *= _PRIME
+        h ^= h >> np.uint64(30)
+        h *= _MIX1
+        h ^= h >> np.uint64(27)
+        h *= _MIX2
+        h ^= h >> np.uint64(31)
+    return h
+
+
+def first_of_rows(rows: np.ndarray) -> np.ndarray:
+    """Sorted indices of the first occurrence of every distinct row of an (N, K) integer array."""
+    n = len(rows)
+    h = row_hash(rows)
+    s = np.sort(h)
+    if not (s[1:] == s[:-1]).any():  # the common case: all keys differ, so all rows do
+        return np.arange(n)
+    order = np.argsort(h, kind="stable")  # stable: the first of a run is the earliest occurrence
+    hs, rs = h[order], rows[order]
+    new = np.ones(n, bool)
+    new[1:] = hs[1:] != hs[:-1]
+    start = np.maximum.accumulate(np.where(new, np.arange(n), 0))
+    if (rs != rs[start]).any():
+        return _first_of_rows_sorted(rows)  # a hash collision between different rows: exact path
+    return np.sort(order[new])
+
+
+def _first_of_rows_sorted(rows: np.ndarray) -> np.ndarray:
+    """first_of_rows by a lexicographic row sort (slow; only for colliding hashes)."""
+    order = np.lexsort(rows.T[::-1])
+    c = rows[order]
+    new = np.ones(len(c), bool)
+    new[1:] = np.any(c[1:] != c[:-1], axis=1)
+    return np.sort(order[new])

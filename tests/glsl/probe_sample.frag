@@ -11,6 +11,8 @@
 //   mode 6  shading_normal_raw(tri = p.x, bary = p.yz), normalised -> (n.xyz, 0)
 //   mode 7  bsdf_sample(u = p.xy)      -> (eta2, 0, 0, 0)
 //   mode 8  fresnel_conductor(cos = p.x, eta = p.y, k = p.z; the same in each channel) -> (F.rgb, 0)
+//   mode 9  sample_cone(u = p.xy, axis = u_wo, cos_max = u_alpha) -> (wi.xyz, 0)  (sun disks)
+//   mode 10 sample_uniform_sphere(u = p.xy) -> (wi.xyz, 0)  (constant environment)
 #include "common.glsl"
 #include "materials.glsl"
 #if MCPT_NEE
@@ -79,7 +81,7 @@ void main() {
 #if MCPT_NEE
     else if (u_mode == 3) {
         float pmf;
-        int lt = light_pick(uintBitsToFloat(p.x), pmf);
+        int lt = int(light_pick(uintBitsToFloat(p.x), pmf).x);
         o_out = uvec4(uint(lt), floatBitsToUint(pmf), 0u, 0u);
     } else if (u_mode == 4) {
         o_out = uvec4(floatBitsToUint(sample_triangle_bary(uintBitsToFloat(p.xy))), 0u, 0u);
@@ -88,6 +90,16 @@ void main() {
 #if MCPT_FRESNEL_COMPLEX
     else if (u_mode == 8) {
         o_out = uvec4(floatBitsToUint(fresnel_conductor(uintBitsToFloat(p.x), vec3(uintBitsToFloat(p.y)), vec3(uintBitsToFloat(p.z)))), 0u);
+    }
+#endif
+#if MCPT_LIGHT_SUN
+    else if (u_mode == 9) {
+        o_out = uvec4(floatBitsToUint(sample_cone(uintBitsToFloat(p.xy), u_wo, u_alpha)), 0u);
+    }
+#endif
+#if MCPT_NEE && MCPT_LIGHT_ENV
+    else if (u_mode == 10) {
+        o_out = uvec4(floatBitsToUint(sample_uniform_sphere(uintBitsToFloat(p.xy))), 0u);
     }
 #endif
 #if MCPT_TEXTURES

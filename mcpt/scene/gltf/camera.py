@@ -1,4 +1,4 @@
-"""A glTF camera as mcpt's pinhole camera (glTF 2.0 spec, section 3.10).
+"""A glTF camera as mcpt's pinhole or orthographic camera (glTF 2.0 spec, section 3.10).
 
 A glTF camera looks down its node's -Z axis with +Y up; ``perspective.yfov`` is the full vertical
 field of view in radians, ``aspectRatio`` (optional) width / height. mcpt's camera is a position,
@@ -50,8 +50,10 @@ def camera(g: Gltf, node: int, world: np.ndarray) -> dict:
     ci = g.get("nodes", node)["camera"]
     cam = g.get("cameras", ci, f"nodes[{node}]")
     where = f"cameras[{ci}]"
+    if cam.get("type") == "orthographic":
+        return {**_pose(g, node, world), **orthographic(g, cam, where)}
     if cam.get("type") != "perspective":
-        raise g.error(where, f"type {cam.get('type')!r}: mcpt renders perspective cameras only")
+        raise g.error(where, f"type {cam.get('type')!r}: mcpt renders perspective and orthographic cameras")
     p = cam.get("perspective")
     if not isinstance(p, dict):
         raise g.error(where, "a perspective camera needs a perspective object")
@@ -62,6 +64,13 @@ def camera(g: Gltf, node: int, world: np.ndarray) -> dict:
     if aspect is not None and (isinstance(aspect, bool) or not isinstance(aspect, (int, float))
                                or not 1e-3 <= aspect <= 1e3):
         raise g.error(where, f"perspective.aspectRatio {aspect!r} is not a number in [0.001, 1000]")
+    height = DEFAULT_HEIGHT
+    width = max(1, round(height * aspect)) if aspect else height
+    return {**_pose(g, node, world), "vfov_deg": math.degrees(yfov), "resolution": [width, height]}
+
+
+def _pose(g: Gltf, node: int, world: np.ndarray) -> dict:
+    """position, look_at, up of the camera on ``node`` (looking down -Z, +Y up)."""
     linear = world[:3, :3]
     position = world[:3, 3]
     forward = linear @ (0.0, 0.0, -1.0)
@@ -69,7 +78,25 @@ def camera(g: Gltf, node: int, world: np.ndarray) -> dict:
     length = float(np.linalg.norm(forward))
     if not length > 0 or not np.isfinite(world).all():
         raise g.error(f"nodes[{node}]", "the camera's world matrix has no view direction (zero scale)")
+    return {"position": position.tolist(), "look_at": (position + forward / length).tolist(), "up": up.tolist()}
+
+
+def orthographic(g: Gltf, cam: dict, where: str) -> dict:
+    """An orthographic camera: ``xmag`` / ``ymag`` are the half width / height of the view (world
+    units; glTF 2.0 section 5.14) -> ``ortho_height = 2 ymag``, the image as wide as xmag / ymag
+    says (the node's scale is ignored, as for a perspective camera)."""
+    o = cam.get("orthographic")
+    if not isinstance(o, dict):
+        raise g.error(where, "an orthographic camera needs an orthographic object")
+    mags = []
+    for key in ("xmag", "ymag"):
+        v = o.get(key)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1e30:
+            raise g.error(where, f"orthographic.{key} {v!r} is not a positive number")
+        mags.append(float(v))
+    aspect = mags[0] / mags[1]
+    if not 1e-3 <= aspect <= 1e3:
+        raise g.error(where, f"orthographic.xmag / ymag = {aspect:g} is not in [0.001, 1000]")
     height = DEFAULT_HEIGHT
-    width = max(1, round(height * aspect)) if aspect else height
-    return {"position": position.tolist(), "look_at": (position + forward / length).tolist(),
-            "up": up.tolist(), "vfov_deg": math.degrees(yfov), "resolution": [width, height]}
+    return {"projection": "orthographic", "ortho_height": 2.0 * mags[1],
+            "resolution": [max(1, round(height * aspect)), height]}

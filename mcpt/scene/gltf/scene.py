@@ -4,7 +4,8 @@
 (camera.py) becomes mcpt's camera; every node that carries a mesh places each of its primitives
 as one scene mesh entry: ``file`` the glTF, ``shape_index`` the primitive's number (geometry.py;
 read by mcpt/shapes/gltf_source.py), ``transform`` the node's world matrix, ``material`` the
-primitive's glTF material mapped by materials.py (one scene material per glTF material used).
+primitive's glTF material mapped by materials.py (one scene material per glTF material used);
+every node that carries a ``KHR_lights_punctual`` light places it (lights.py, issue #20).
 Every accessor, view and buffer used is checked from the declared sizes first, and the buffers
 are read once (the parsed file is shared with the geometry reader), so a short or lying buffer is
 refused at load time in one line. The data is then validated by the same
@@ -27,7 +28,9 @@ from ..mapped import validated
 from ..model import Scene
 from . import camera as cameras
 from . import geometry, nodes
-from .container import Gltf, GltfError, obj, open_gltf
+from .animation import animation_data
+from .container import Gltf, GltfError, open_gltf
+from .lights import lights
 from .materials import material, material_name
 
 log = logging.getLogger("mcpt")
@@ -37,7 +40,7 @@ OPTIONS = ("camera",)
 #: Most triangles the placed meshes may add up to (instances counted), checked before reading.
 MAX_TRIANGLES = 2**26
 #: Extensions mcpt reads or may ignore (the rest, when required by the file, are refused).
-SUPPORTED_EXTENSIONS = ("KHR_materials_emissive_strength", "KHR_texture_transform")
+SUPPORTED_EXTENSIONS = ("KHR_materials_emissive_strength", "KHR_texture_transform", "KHR_lights_punctual")
 
 
 def split_options(overrides, path) -> tuple[dict[str, str], list[str]]:
@@ -63,27 +66,14 @@ def _check_extensions(g: Gltf) -> None:
             raise g.error("extensionsRequired", f"{ext} is not supported by mcpt")
 
 
-def _refuse_lights(g: Gltf, node: int) -> None:
-    light = obj(g.get("nodes", node).get("extensions")).get("KHR_lights_punctual")
-    if isinstance(light, dict):
-        lights = obj(obj(g.doc.get("extensions")).get("KHR_lights_punctual")).get("lights")
-        lights = lights if isinstance(lights, list) else []
-        li = light.get("light")
-        item = obj(lights[li]) if isinstance(li, int) and 0 <= li < len(lights) else {}
-        label = f"light {li} {item.get('name')!r}" if isinstance(item.get("name"), str) else f"light {li}"
-        raise g.error(f"nodes[{node}]", f"KHR_lights_punctual {label} ({item.get('type', '?')}): "
-                                        "punctual lights are not supported by mcpt yet (issue #20); "
-                                        "light the scene with emissive materials")
-
-
-def _meshes(g: Gltf, placed, prims) -> tuple[list[dict], dict[str, dict]]:
-    """The scene's mesh entries and materials for the placed nodes."""
+def _meshes(g: Gltf, placed, prims, owners: list | None = None) -> tuple[list[dict], dict[str, dict]]:
+    """The scene's mesh entries and materials for the placed nodes (``owners``: filled with each
+    entry's node, for the animation, issue #26)."""
     meshes: list[dict] = []
     materials: dict[str, dict] = {}
     names: dict = {}          # (glTF material index or None, has normals) -> scene material name
     triangles = 0
     for ni, world in placed:
-        _refuse_lights(g, ni)
         node = g.get("nodes", ni)
         if "mesh" not in node:
             continue
@@ -104,6 +94,8 @@ def _meshes(g: Gltf, placed, prims) -> tuple[list[dict], dict[str, dict]]:
                 materials[names[key]] = material(g, key[0]) | ({"smooth_normals": True} if key[1] else {})
             meshes.append({"file": str(g.path), "shape_index": number, "material": names[key],
                            "transform": {"matrix": world.tolist()}})
+            if owners is not None:
+                owners.append(ni)
     return meshes, materials
 
 
@@ -122,12 +114,18 @@ def scene_data(path: str | Path, options: dict[str, str] | None = None) -> dict:
     placed = nodes.instances(g)
     node, world = cameras.choose(g, placed, options.get("camera"))
     cam = cameras.camera(g, node, world)
-    meshes, materials = _meshes(g, placed, geometry.primitives(g))
+    owners: list = []
+    meshes, materials = _meshes(g, placed, geometry.primitives(g), owners)
     if not meshes:
         raise g.error("nodes", "no node of the scene places a mesh: nothing to render")
     for i in range(len(g.items("buffers"))):
         g.buffer(i)  # read (and check) every buffer now: shared with the geometry reader
-    return {"name": Path(path).stem, "camera": cam, "render": {}, "materials": materials, "meshes": meshes}
+    data = {"name": Path(path).stem, "camera": cam, "render": {}, "materials": materials, "meshes": meshes}
+    if found := lights(g, placed):  # issue #20: KHR_lights_punctual (gltf/lights.py)
+        data["lights"] = found
+    if anim := animation_data(g, placed, owners):  # issue #26: node TRS channels (gltf/animation.py)
+        data["animation"] = anim
+    return data
 
 
 def load_gltf(path: str | Path, overrides=()) -> Scene:

@@ -6,8 +6,13 @@
   ``tan(vfov/2) = tan(xfov/2) / aspect``. ``to_world`` gives position = M·0, view direction =
   M's third column, up = its second column (Mitsuba's camera looks along local +z with local +x
   the image's LEFT, so mcpt's right = forward x up is Mitsuba's -x: the same image).
-* ``hdrfilm`` / ``specfilm``: ``width`` / ``height`` (default 768 x 576); a pixel filter other
-  than ``box`` is approximated by mcpt's box filter with a warning.
+* ``thinlens``: the same, plus ``aperture_radius`` and ``focus_distance`` -> ``camera.lens``
+  (world units, exactly: the focus plane, the concentric disk; src/sensors/thinlens.cpp).
+* ``orthographic``: ``to_world``'s x/y scale s sets the view (Mitsuba: x in [-s, s], y in
+  [-s/aspect, s/aspect]) -> ``projection: orthographic``, ``ortho_height = 2 s / aspect``.
+* ``hdrfilm`` / ``specfilm``: ``width`` / ``height`` (default 768 x 576); ``rfilter`` ``box``,
+  ``tent`` (``radius``) and ``gaussian`` (``stddev``; the default filter) -> ``camera.filter``
+  exactly (filter importance sampling: mcpt/shading/pixel_filter.py); others are refused.
 * any sampler: ``sample_count`` (default 4) -> ``spp``; ``seed`` -> ``seed``.
 * ``path`` and the integrators whose expected image is the same: ``max_depth`` (default -1) ->
   ``bounces = max_depth - 1``; -1 (unlimited) -> :data:`UNLIMITED_BOUNCES`.
@@ -20,7 +25,9 @@ import math
 
 import numpy as np
 
+from ...shading.pixel_filter import FILTERS, GAUSS_RADIUS_STDDEVS
 from ..fields import MAX_RESOLUTION
+from ..pixel_filter import MAX_RADIUS
 from . import values as V
 from .xmltree import Node
 
@@ -98,10 +105,10 @@ def camera_pose(m: np.ndarray, where: Node) -> dict:
     return {"position": pos.tolist(), "look_at": (pos + fwd).tolist(), "up": up.tolist()}
 
 
-def film(node: Node | None) -> tuple[int, int]:
-    """(width, height) of the film, with the pixel-filter warning."""
+def film(node: Node | None) -> tuple[int, int, dict]:
+    """(width, height, pixel filter) of the film."""
     if node is None:
-        return 768, 576
+        return 768, 576, pixel_filter(None)
     if node.get("type") not in SUPPORTED_FILMS:
         raise node.error(f"not supported by mcpt (supported films: {', '.join(SUPPORTED_FILMS)})")
     props = V.properties(node)
@@ -115,13 +122,28 @@ def film(node: Node | None) -> tuple[int, int]:
         if key in props:
             raise props[key].error("film crops are not supported by mcpt")
     rfilter = next((c for c in node.children if c.tag == "rfilter"), None)
-    kind = rfilter.get("type") if rfilter is not None else "gaussian"
-    if kind != "box":
-        where = rfilter or node
-        log.warning("%s:%d: %s: pixel filter %s is approximated by mcpt's box filter (each pixel "
-                    "averages its own area; a slightly sharper image, the same mean)",
-                    where.file, where.line, where.label, kind)
-    return size[0], size[1]
+    return size[0], size[1], pixel_filter(rfilter)
+
+
+def pixel_filter(node: Node | None) -> dict:
+    """mcpt's ``camera.filter`` for an ``<rfilter>`` (absent: Mitsuba's default, gaussian):
+    box, tent (``radius``, default 1) and gaussian (``stddev``, default 0.5) exactly; others refused."""
+    if node is None:
+        return {"type": "gaussian"}
+    kind = node.get("type")
+    params = {"tent": "radius", "gaussian": "stddev"}
+    if kind not in FILTERS:
+        raise node.error(f"pixel filter {kind!r} is not supported by mcpt (supported: {', '.join(FILTERS)})")
+    props = V.properties(node)
+    out: dict = {"type": kind}
+    for key, value in props.items():
+        if key != params.get(kind):
+            raise value.error(f"{key}: not a parameter of the {kind} filter")
+        out[key] = V.as_float(value)
+        support = out[key] * (GAUSS_RADIUS_STDDEVS if key == "stddev" else 1.0)
+        if not 0.0 < support <= MAX_RADIUS:
+            raise value.error(f"{key} {out[key]:g}: the filter's radius must lie in (0, {MAX_RADIUS:g}] pixels")
+    return out
 
 
 def sampler(node: Node | None) -> dict:
@@ -160,20 +182,62 @@ def integrator(node: Node | None) -> int:
     return depth - 1
 
 
+SUPPORTED_SENSORS = ("perspective", "thinlens", "orthographic")
+
+
+def lens(props: dict[str, Node], node: Node, m: np.ndarray) -> dict:
+    """``camera.lens`` of a ``thinlens``: ``aperture_radius`` (required, as in Mitsuba) and
+    ``focus_distance`` (Mitsuba's default: far_clip, 1e4), world units."""
+    if "aperture_radius" not in props:
+        raise node.error("a thinlens sensor needs aperture_radius (as Mitsuba requires)")
+    if not np.allclose(np.linalg.norm(m[:3, :3], axis=0), 1.0, rtol=1e-5):
+        raise props.get("to_world", node).error("to_world of a thinlens has a scale (Mitsuba refuses it too)")
+    out = {"aperture_radius": V.as_float(props["aperture_radius"]),
+           "focus_distance": V.as_float(props["focus_distance"]) if "focus_distance" in props else 1e4}
+    if not out["aperture_radius"] >= 0.0:
+        raise props["aperture_radius"].error(f"aperture_radius {out['aperture_radius']:g} must be >= 0")
+    if not out["focus_distance"] > 0.0:
+        raise props["focus_distance"].error(f"focus_distance {out['focus_distance']:g} must be > 0")
+    return out
+
+
+def ortho_view(m: np.ndarray, aspect: float, where: Node) -> dict:
+    """Pose and ``ortho_height`` of an ``orthographic`` sensor: Mitsuba's view is x in [-1, 1],
+    y in [-1/aspect, 1/aspect] in camera space, stretched by to_world's scale (z scale unused)."""
+    a = m[:3, :3]
+    n = np.linalg.norm(a, axis=0)
+    unit = a / n
+    if not np.allclose(m[3], [0, 0, 0, 1]) or not np.allclose(unit.T @ unit, np.eye(3), atol=1e-6):
+        raise where.error("to_world of an orthographic sensor must be a rotation with scale (no shear)")
+    if not np.isclose(n[0], n[1], rtol=1e-6):
+        raise where.error(f"to_world scales x and y differently ({n[0]:g}, {n[1]:g}): mcpt's pixels are square")
+    if np.linalg.det(a) < 0:
+        raise where.error("to_world mirrors the image (negative determinant); mcpt's camera cannot mirror")
+    pos = m[:3, 3]
+    return {"position": pos.tolist(), "look_at": (pos + unit[:, 2]).tolist(), "up": unit[:, 1].tolist(),
+            "projection": "orthographic", "ortho_height": float(2.0 * n[1] / aspect)}
+
+
 def sensor(node: Node, objects) -> tuple[dict, dict]:
     """(camera dict, render dict) for a ``<sensor>``; ``objects``: its child objects resolved."""
-    if node.get("type") != "perspective":
-        raise node.error("not supported by mcpt (supported sensors: perspective)")
+    kind = node.get("type")
+    if kind not in SUPPORTED_SENSORS:
+        raise node.error(f"not supported by mcpt (supported sensors: {', '.join(SUPPORTED_SENSORS)})")
     props = V.properties(node)
     for key in ("principal_point_offset_x", "principal_point_offset_y"):
         if key in props and V.as_float(props[key]) != 0.0:
             raise props[key].error("off-centre principal points are not supported by mcpt")
     film_node = next((c for c in objects if c.tag == "film"), None)
-    width, height = film(film_node)
+    width, height, rfilter = film(film_node)
     render = sampler(next((c for c in objects if c.tag == "sampler"), None))
     aspect = width / height
     m = V.as_transform(props["to_world"]) if "to_world" in props else np.eye(4)
-    camera = {**camera_pose(m, props.get("to_world", node)),
-              "vfov_deg": vfov_deg(x_fov(props, aspect, node), aspect),
-              "resolution": [width, height]}
+    where = props.get("to_world", node)
+    if kind == "orthographic":
+        camera = ortho_view(m, aspect, where)
+    else:
+        camera = {**camera_pose(m, where), "vfov_deg": vfov_deg(x_fov(props, aspect, node), aspect)}
+    if kind == "thinlens":
+        camera["lens"] = lens(props, node, m)
+    camera.update(resolution=[width, height], filter=rfilter)
     return camera, render

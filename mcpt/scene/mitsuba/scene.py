@@ -19,6 +19,7 @@ import numpy as np
 from ..mapped import validated
 from ..model import Scene
 from . import bsdfs, camera
+from .emitters import emitter
 from .shapes import ShapeOut, shape
 from .xmltree import XmlError, deref, read_tree
 
@@ -53,6 +54,8 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     sensor = None
     integrator = None
     shapes: list[ShapeOut] = []
+    lights: list[dict] = []
+    environment = None
     for node in tree.root.children:
         if node.tag not in TOP_LEVEL:
             if node.tag in ("ref",):
@@ -69,7 +72,15 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
         elif node.tag == "shape":
             shape(node, tree.ids, np.eye(4), shapes)
         elif node.tag == "emitter":
-            raise node.error("not supported by mcpt (supported emitters: area, inside a <shape>)")
+            where, light = emitter(node)  # issue #20: punctual lights, constant environment
+            if where == "environment":
+                if environment is not None:
+                    raise node.error("a second environment emitter (mcpt takes one)")
+                environment = light
+                lines[("environment",)] = node.line
+            else:
+                lines[("lights", str(len(lights)))] = node.line
+                lights.append(light)
     if sensor is None:
         raise XmlError(path, tree.root.line, "<scene>", "no <sensor>: mcpt needs a perspective camera")
     objects = [deref(c, tree.ids) for c in sensor.children if c.tag in ("film", "sampler", "ref")]
@@ -104,7 +115,12 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     if not meshes:
         raise XmlError(path, tree.root.line, "<scene>", "no shapes: nothing to render")
     name = Path(path).stem
-    return {"name": name, "camera": cam, "render": render, "materials": materials, "meshes": meshes}, lines
+    data = {"name": name, "camera": cam, "render": render, "materials": materials, "meshes": meshes}
+    if lights:
+        data["lights"] = lights
+    if environment is not None:
+        data["environment"] = environment
+    return data, lines
 
 
 def load_xml(path: str | Path, overrides=()) -> Scene:

@@ -1,0 +1,224 @@
+"""Reading an environment map image (mcpt/shading/envmap.py builds its sampling tables).
+
+``.exr`` through OpenEXR (channels R, G, B, or Y for a grey map), ``.hdr`` (Radiance RGBE) through
+OpenCV, both linear RGB. An 8- or 16-bit ``.png`` / ``.jpg`` is accepted the way Mitsuba 3 accepts
+it (its Bitmap converts to linear): the values are sRGB-decoded, so they never exceed 1, and a
+note says so once.
+
+Refused, each in one line that names the file (:class:`EnvMapError`):
+
+* a file that is not an image of its kind, or that cannot be read;
+* an image larger than :data:`MAX_ENV_TEXELS`, found from the file's header *before* decoding
+  (a 100k x 50k EXR would otherwise allocate 60 GB first);
+* NaN, infinite or negative texels, with their count. They are refused rather than clamped: such
+  a value is not a radiance, and replacing it would silently change the light the scene gets
+  (the user can fix the file; Mitsuba would propagate the NaN into the render).
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import McptError
+
+log = logging.getLogger("mcpt")
+
+#: The most texels an environment map may have (2^26: 11585^2, or 16384 x 4096). Its buffer
+#: texture holds one RGBA32 texel per image texel (1 GiB at the limit), within llvmpipe's
+#: GL_MAX_TEXTURE_BUFFER_SIZE of 2^27 texels; the upload checks the driver's own limit again.
+MAX_ENV_TEXELS = 1 << 26
+
+HDR_SUFFIXES = (".exr", ".hdr")
+LDR_SUFFIXES = (".png", ".jpg", ".jpeg")
+
+#: Said once for an 8/16-bit image, after the file name.
+LDR_NOTE = "LDR environment: values read as sRGB-decoded, max 1"
+
+
+class EnvMapError(McptError, ValueError):
+    """An environment map cannot be used; the one-line message names the file."""
+
+
+def _one_line(text: object) -> str:
+    return " ".join(str(text).split())
+
+
+# ------------------------------------------------------------------------------------------------
+# Sizes from the headers, before any pixel is decoded
+
+
+def _exr_size(path: Path) -> tuple[int, int]:
+    import OpenEXR
+
+    try:
+        header = OpenEXR.File(str(path), header_only=True).header()
+    except (RuntimeError, OSError, ValueError) as exc:
+        raise EnvMapError(f"{path}: not an OpenEXR image, or unreadable ({_one_line(exc)})") from None
+    lo, hi = header["dataWindow"]
+    return int(hi[0]) - int(lo[0]) + 1, int(hi[1]) - int(lo[1]) + 1
+
+
+_HDR_RES = re.compile(rb"^([-+])([XY])\s+(\d+)\s+([-+])([XY])\s+(\d+)\s*$")
+
+
+def _hdr_size(path: Path) -> tuple[int, int]:
+    """Radiance RGBE: ``#?RADIANCE`` (or ``#?RGBE``), header lines, a blank line, then the
+    resolution line, e.g. ``-Y 1024 +X 2048`` (rows first)."""
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+    lines = head.split(b"\n")
+    if not lines[0].startswith((b"#?RADIANCE", b"#?RGBE")):
+        raise EnvMapError(f"{path}: not a Radiance .hdr image (no #?RADIANCE signature)")
+    try:
+        blank = lines.index(b"", 1)
+        m = _HDR_RES.match(lines[blank + 1])
+    except (ValueError, IndexError):
+        m = None
+    if m is None:
+        raise EnvMapError(f"{path}: not a Radiance .hdr image (no resolution line in its header)")
+    first, second = int(m.group(3)), int(m.group(6))
+    return (second, first) if m.group(2) == b"Y" else (first, second)
+
+
+_JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
+
+
+def _ldr_size(path: Path) -> tuple[int, int] | None:
+    """PNG: the IHDR chunk; JPEG: the first start-of-frame segment. None if not found (OpenCV
+    then decides)."""
+    with open(path, "rb") as f:
+        head = f.read(24)
+        if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+            return struct.unpack(">II", head[16:24])
+        if head[:2] != b"\xff\xd8":
+            return None
+        f.seek(2)
+        for _ in range(1000):  # segments before the frame header: APPn, DQT, COM, ...
+            marker = f.read(4)
+            if len(marker) < 4 or marker[0] != 0xFF:
+                return None
+            length = struct.unpack(">H", marker[2:4])[0]
+            if marker[1] in _JPEG_SOF:
+                frame = f.read(5)
+                if len(frame) < 5:
+                    return None
+                h, w = struct.unpack(">HH", frame[1:5])
+                return w, h
+            f.seek(length - 2, 1)
+    return None
+
+
+def _check_size(path: Path, size: tuple[int, int] | None) -> None:
+    if size is None:
+        return
+    w, h = size
+    if w < 1 or h < 1:
+        raise EnvMapError(f"{path}: empty image ({w} x {h})")
+    if w * h > MAX_ENV_TEXELS:
+        raise EnvMapError(f"{path}: {w} x {h} = {w * h} texels; an environment map may have at most "
+                          f"{MAX_ENV_TEXELS} (2^26), e.g. 8192 x 4096")
+
+
+# ------------------------------------------------------------------------------------------------
+# Decoding
+
+
+def _read_exr(path: Path) -> np.ndarray:
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            ch = {k: np.asarray(v.pixels) for k, v in f.channels().items()}
+    except (RuntimeError, OSError, ValueError) as exc:
+        raise EnvMapError(f"{path}: not an OpenEXR image, or unreadable ({_one_line(exc)})") from None
+    if all(c in ch for c in "RGB"):
+        planes = [ch[c] for c in "RGB"]
+    elif "Y" in ch:
+        planes = [ch["Y"]] * 3
+    else:
+        names = ", ".join(sorted(ch)[:6])
+        raise EnvMapError(f"{path}: no R, G, B (or Y) channels in the EXR; it has {names}")
+    return np.stack([np.asarray(p, np.float32) for p in planes], axis=-1)
+
+
+def _srgb_decode(x: np.ndarray) -> np.ndarray:
+    """The sRGB curve (IEC 61966-2-1) on values in [0, 1]."""
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def _read_cv2(path: Path, hdr: bool) -> np.ndarray:
+    import cv2
+
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    kind = "a Radiance .hdr image" if hdr else "a PNG or JPEG image"
+    if img is None:
+        raise EnvMapError(f"{path}: not {kind} OpenCV can read, or unreadable")
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.shape[2] in (1, 2):   # grey (+ alpha)
+        img = np.repeat(img[:, :, :1], 3, axis=2)
+    else:
+        img = img[:, :, 2::-1]   # BGR(A) -> RGB
+    if hdr:
+        return np.ascontiguousarray(img, np.float32)
+    if img.dtype == np.uint8:
+        return _srgb_decode(img / 255.0).astype(np.float32)
+    if img.dtype == np.uint16:
+        return _srgb_decode(img / 65535.0).astype(np.float32)
+    raise EnvMapError(f"{path}: {img.dtype} pixels; an LDR environment map must be 8- or 16-bit")
+
+
+def check_texels(img: np.ndarray, where: str) -> None:
+    """Refuse NaN, infinite or negative texels, with their count (``where`` names the source)."""
+    lo, hi = float(img.min()), float(img.max())  # NaN propagates through min / max
+    if np.isfinite(lo) and np.isfinite(hi) and lo >= 0.0:
+        return
+    finite = np.isfinite(img).all(axis=-1)
+    bad = int(img.shape[0] * img.shape[1] - np.count_nonzero(finite))
+    negative = int(np.count_nonzero((np.where(finite[..., None], img, 0.0) < 0.0).any(axis=-1)))
+    if bad or negative:
+        what = [f"{bad} NaN or infinite" if bad else "", f"{negative} negative" if negative else ""]
+        raise EnvMapError(f"{where}: {' and '.join(w for w in what if w)} texels of "
+                          f"{img.shape[1]} x {img.shape[0]}; an environment map must hold finite, "
+                          f"non-negative radiance")
+
+
+def read_envmap_image(path: str | Path) -> tuple[np.ndarray, str | None]:
+    """(H, W, 3) float32 linear RGB, row 0 = the image's top row, and the LDR note (None for an
+    HDR image). Every refusal is an :class:`EnvMapError` naming the file."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in HDR_SUFFIXES + LDR_SUFFIXES:
+        raise EnvMapError(f"{path}: unknown environment map format {path.suffix or '(none)'!r}; "
+                          f"use .exr or .hdr (or .png / .jpg)")
+    if not path.is_file():
+        raise EnvMapError(f"{path}: environment map not found")
+    try:
+        if suffix == ".exr":
+            _check_size(path, _exr_size(path))
+            img = _read_exr(path)
+        elif suffix == ".hdr":
+            _check_size(path, _hdr_size(path))
+            img = _read_cv2(path, hdr=True)
+        else:
+            _check_size(path, _ldr_size(path))
+            img = _read_cv2(path, hdr=False)
+    except OSError as exc:
+        raise EnvMapError(f"{path}: cannot read: {_one_line(exc.strerror or exc)}") from None
+    _check_size(path, (img.shape[1], img.shape[0]))
+    check_texels(img, str(path))
+    return img, (LDR_NOTE if suffix in LDR_SUFFIXES else None)
+
+
+def read_envmap(path: str | Path) -> np.ndarray:
+    """(H, W, 3) float32 linear RGB of an environment map file (:func:`read_envmap_image`); an
+    LDR file is accepted with one warning on the ``mcpt`` logger."""
+    img, note = read_envmap_image(path)
+    if note:
+        log.warning("%s: %s", path, note)
+    return img
