@@ -49,8 +49,7 @@ def reports_errors(fn):
             click.echo(f"mcpt: error: {exc}", err=True)
             sys.exit(EXIT_INPUT)
         except Interrupted as exc:  # a signal during a write: the write was undone
-            click.echo(f"mcpt: interrupted by {exc.name} while writing: that file was left as it "
-                       "was", err=True)
+            click.echo(f"mcpt: interrupted by {exc.name}{_which(exc)}", err=True)
             sys.exit(exc.exit_code)
         except KeyboardInterrupt:
             click.echo("mcpt: interrupted", err=True)
@@ -64,6 +63,16 @@ def reports_errors(fn):
             sys.exit(1)
 
     return wrapper
+
+
+def _which(exc: Interrupted) -> str:
+    """Which outputs hold the new image and which were left as they were (output/image.py
+    write_images records them; issue #24)."""
+    kept, written = getattr(exc, "kept", None), getattr(exc, "written", [])
+    if kept is None:
+        return ": every output left as it was"
+    new = f"; {', '.join(written)} written" if written else ""
+    return f" while writing: {', '.join(kept)} left as it was{new}"
 
 
 class _OneLineUsageError(click.UsageError):

@@ -3,9 +3,19 @@ into the image one render of the summed spp would give (mcpt/farm/merge.py)."""
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from .group import main, reports_errors
+
+
+def _same_file(a, b) -> bool:
+    """The same file, however named (relative, absolute, a link)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist: the same only if the names resolve alike
+        return os.path.realpath(a) == os.path.realpath(b)
 
 
 @main.command()
@@ -21,13 +31,19 @@ def merge(inputs, outputs, exposure, denoise):
     """Merge EXR renders of the same scene (different seeds), weighted by their spp, AOV layers
     included."""
     from mcpt.farm.merge import merge as merge_images
-    from mcpt.output.image import check_output_path, write_image
+    from mcpt.farm.signals import StopSignals
+    from mcpt.output.image import check_output_path, write_images
 
     for output in outputs:
         check_output_path(output)
-    image, header, layers = merge_images(list(inputs), denoise=denoise)
-    for output in outputs:
-        write_image(output, image, header, exposure, layers)
+        if any(_same_file(output, i) for i in inputs):
+            raise click.BadParameter(f"{output} is also an input: merge would replace it (issue "
+                                     "#24); name another output", param_hint="-o")
+    # A stop signal acts at once (issue #24: SIGTERM during the write left the temporary file):
+    # nothing is written until the merge is done, and a write in progress is undone.
+    with StopSignals() as signals, signals.writing():
+        image, header, layers = merge_images(list(inputs), denoise=denoise)
+        write_images(outputs, image, header, exposure, layers)
     notes = [f"layers {header['mcpt:aovs']}"] if header.get("mcpt:aovs") else []
     if "mcpt:merged_beauty" in header:
         notes.append("the inputs were denoised: their raw beauty was merged"

@@ -47,6 +47,9 @@ from .options import finite, positive_finite, render_options
 @click.option("--resume", is_flag=True,
               help="Continue from OUTPUT.state.npz (first -o) to the spp asked for; bit-identical "
                    "to an uninterrupted render; refuses a changed scene or setting.")
+@click.option("--overwrite", is_flag=True,
+              help="With --checkpoint: replace a checkpoint already at OUTPUT.state.npz (without "
+                   "it, or --resume, such a render is refused: it would replace the passes there).")
 @click.option("--first-pass", type=click.IntRange(min=0), default=0, show_default=True, metavar="N",
               help="Render passes N .. spp-1 of the seed only (N a multiple of 64): disjoint ranges "
                    "of one seed, rendered anywhere, `mcpt merge` into passes 0 .. spp-1.")
@@ -69,8 +72,8 @@ from .options import finite, positive_finite, render_options
 @click.option("--quiet", is_flag=True, help="No progress output.")
 @reports_errors
 def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs,
-           overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, first_pass,
-           workers, scheduler, camera, progress_mode, as_json, quiet, frames_text):
+           overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, overwrite,
+           first_pass, workers, scheduler, camera, progress_mode, as_json, quiet, frames_text):
     """Render SCENE_FILE (YAML, Mitsuba 3 XML, glTF 2.0 .gltf/.glb) to an image."""
     started = time.perf_counter()
     from mcpt.api import Options
@@ -88,6 +91,7 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
                    gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,
                    exposure=exposure, aovs=parse_aovs(aov_text), denoise=denoise,
                    time_budget=time_budget, checkpoint=checkpoint, resume=resume,
+                   overwrite=overwrite,
                    first_pass=first_pass, overrides=tuple(overrides), workers=workers,
                    scheduler=scheduler, progress=prog, started=started)
     if frames_text is not None or any("#" in str(o) or str(o).lower().endswith(".mp4")

@@ -18,13 +18,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from .farm.state import scene_hash
 from .gpu.context import GLContext, shared_context
 from .gpu.features import Features, for_world, loop_limit_for
 from .gpu.pack import pack
 from .gpu.pack_cache import cached_pack
 from .gpu.render import Renderer
 from .output.layers import feature_flags as aov_flags
-from .scene import Scene, load_scene
+from .scene import Scene, SceneError, load_scene
 from .shading.camera import check_camera
 from .shapes.world import World, load_world
 from .shapes.world_cache import cached_world
@@ -46,6 +47,7 @@ class Prepared:
     aovs: tuple = ()              # the AOVs computed (mcpt/output/layers.py computed)
     overrides: tuple = ()         # -D KEY=VALUE applied when the scene file was read
     gl_backend: str | None = None  # as asked (None: $MCPT_GL_BACKEND or auto); gl.backend: the one used
+    scene_hash: str | None = None  # of the files as the world was built from them (farm/state.py)
 
 
 def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, resolution=None,
@@ -61,7 +63,15 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
         scene = load_scene(scene, overrides=tuple(overrides))
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
     gl = shared_context(gl_backend)
+    # The hash a checkpoint, an EXR header and every farm worker check is that of the files this
+    # world was built from (issue #24: a mesh edited during a farm render was drawn by the workers
+    # while the header recorded the original): taken before and after reading them, and refused
+    # when they changed in between.
+    digest = scene_hash(scene)
     world = cached_world(scene, load_world, cache)
+    if scene_hash(scene) != digest:
+        raise SceneError(str(scene.source_path or "<scene>"), None, "",
+                         "a file of the scene changed while it was read; render again")
     check_camera(scene, world.tris)
     flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:
@@ -71,4 +81,4 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
         feats = feats.everything()
     renderer = Renderer(gl, feats, cached_pack(world, feats, pack, cache), clamp=clamp)
     return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0, features_mode,
-                    clamp, tuple(aovs), tuple(overrides), gl_backend)
+                    clamp, tuple(aovs), tuple(overrides), gl_backend, digest)

@@ -21,6 +21,7 @@ render; ``spp_requested`` in the summary and the header then keeps the asked-for
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -30,11 +31,13 @@ from .farm import state as st
 from .farm.accumulate import CHUNK, Accumulator
 from .farm.control import Control
 from .farm.signals import StopSignals
-from .output.image import check_output_path, write_image
+from .output.image import ImageError, check_output_path, write_images
 from .output.layers import computed as computed_aovs
 from .output.layers import finish
 from .output.metadata import header, metadata
 from .prepare import Prepared, prepare
+
+log = logging.getLogger("mcpt")
 
 
 class RangeError(McptError, ValueError):
@@ -58,6 +61,7 @@ class Options:
     time_budget: float | None = None      # seconds of wall time from ``started``
     checkpoint: float | None = None       # seconds between checkpoints
     resume: bool = False
+    overwrite: bool = False               # replace a checkpoint already there (else refused)
     first_pass: int = 0                   # render passes first_pass .. spp-1 (a pass range)
     overrides: tuple = ()                 # -D KEY=VALUE
     workers: int | None = None
@@ -86,14 +90,19 @@ def render(scene, opts: Options, signals: StopSignals | None = None) -> Outcome:
     ``opts.outputs``. Bad outputs, a missing denoiser or Dask fail here, before any work."""
     for output in opts.outputs:
         check_output_path(output)
+    if opts.outputs and (opts.checkpoint is not None or opts.resume):
+        st.check_state_path(st.state_path(opts.outputs[0]), resume=opts.resume,
+                            overwrite=opts.overwrite)
     if opts.denoise:
         from .output.denoise import version
 
         version()  # no denoiser: one clear error before minutes of rendering
     if opts.workers or opts.scheduler:
-        from .farm.cluster import require_dask
+        from .farm.cluster import check_workers, require_dask
 
         require_dask()
+        if opts.workers and not opts.scheduler:
+            check_workers(opts.workers)
     p = prepare(scene, spp=opts.spp, bounces=opts.bounces, seed=opts.seed,
                 resolution=opts.resolution, gl_backend=opts.gl_backend,
                 features_mode=opts.features_mode, clamp=opts.clamp, sampler=opts.sampler,
@@ -132,7 +141,7 @@ class _Loop:
         self.spp, self.seed = p.scene.render.spp, p.scene.render.seed
         self.record = st.settings(p.scene, features_mode=p.features_mode, clamp=p.clamp,
                                   sampler=p.features.sampler, aovs=p.aovs,
-                                  samples_per_draw=r.samples_per_draw)
+                                  samples_per_draw=r.samples_per_draw, digest=p.scene_hash)
         self.state_file = st.state_path(opts.outputs[0]) if opts.outputs else None
         self.acc = self._start()
         self.resumed_from = self.acc.spp
@@ -172,12 +181,26 @@ class _Loop:
             if action[0] == "checkpoint":
                 self.save_checkpoint()
 
-    def save_checkpoint(self) -> None:
-        with self.signals.writing():
-            st.save(self.state_file, self.acc, {**self.record, "spp_requested": self.spp})
-            self._write()
-        self.saved.append(self.state_file)
+    def save_checkpoint(self, final: bool = False) -> None:
+        """The state file and the images. A state or (before the end) an image that cannot be
+        written is a warning and the render goes on (issue #24: a full disk used to end hours of
+        passes with nothing written); the final images fail as any render's would."""
         self.control.last_checkpoint = time.perf_counter()
+        try:
+            with self.signals.writing():
+                st.save(self.state_file, self.acc, {**self.record, "spp_requested": self.spp})
+            self.saved.append(self.state_file)
+        except OSError as exc:
+            log.warning("checkpoint %s not written (%s); the render goes on", self.state_file,
+                        exc.strerror or exc)
+        try:
+            with self.signals.writing():
+                self._write()
+        except (OSError, ImageError) as exc:
+            if final:
+                raise
+            log.warning("checkpoint images not written (%s); the render goes on",
+                        " ".join(str(exc).split()))
 
     def finish(self) -> Outcome:
         """The last checkpoint or image, and what the render did."""
@@ -185,9 +208,9 @@ class _Loop:
         written = []
         if stop == "signal":
             if opts.checkpoint is not None and self.acc.spp > self.resumed_from:
-                self.save_checkpoint()
+                self.save_checkpoint(final=True)
         elif opts.checkpoint is not None:
-            self.save_checkpoint()  # the final image, and the state that a longer render can resume
+            self.save_checkpoint(final=True)  # the final image, and the state that a longer render can resume
             written = list(opts.outputs)
         elif self.acc.spp > 0 and opts.outputs:
             with self.signals.writing():
@@ -208,9 +231,8 @@ class _Loop:
                      self.opts.first_pass)
         image, layers, extra = finish(result, self.opts.aovs, self.opts.denoise)
         hdr.update(extra)  # mcpt:aovs lists the layers written (the record, the ones computed)
-        for output in self.opts.outputs:
-            write_image(output, image, hdr, self.opts.exposure, layers=layers, alpha=result.alpha)
-        return list(self.opts.outputs)
+        return write_images(self.opts.outputs, image, hdr, self.opts.exposure, layers,
+                            alpha=result.alpha)
 
 
 def _check_range(opts: Options, spp: int, chunk: int) -> None:

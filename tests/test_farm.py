@@ -281,7 +281,7 @@ def test_merge_is_the_exact_spp_weighted_mean(folder):
     (["-D", "materials.white.albedo=[0.8,0.8,0.8]"], "the scene differs"),
     (["--bounces", "4"], "bounces is 2 in s1.exr but 4 in other.exr"),
     (["--resolution", "8x8"], "width"),
-    (["--seed", "1"], "overlap passes 0..7 of s1.exr"),
+    (["--seed", "1"], "overlap passes 0..7 of seed 1 in s1.exr"),
 ])
 def test_merge_refuses_another_scene_or_setting(folder, args, needle):
     assert invoke("scene.yaml", "--seed", "1", "--spp", "8", "-o", "s1.exr").exit_code == 0

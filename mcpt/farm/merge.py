@@ -101,14 +101,30 @@ def _check_compatible(paths, records) -> None:
                    f"{paths[0]} ({','.join(_aovs(first)) or 'none'})")
         if why:
             raise MergeError(f"cannot merge {path}: {why}")
+        for seed, lo, hi in pass_ranges(rec):
+            for a, b, other in ranges.get(seed, []):
+                if lo < b and a < hi:
+                    raise MergeError(f"cannot merge {path}: its passes {lo}..{hi - 1} of seed {seed} "
+                                     f"overlap passes {a}..{b - 1} of seed {seed} in {other}, so they "
+                                     "share paths (render other seeds, or disjoint --first-pass ranges)")
+            ranges.setdefault(seed, []).append((lo, hi, path))
+
+
+def pass_ranges(rec: dict) -> list[tuple[str, int, int]]:
+    """The (seed, first pass, end pass) ranges an input holds: one for a render, one per merged
+    render for a merge (its ``mcpt:seeds``, ``mcpt:merged_spp``, ``mcpt:merged_first_pass``;
+    issue #24: a merge's own ``mcpt:seed`` names only its first part, so seed 2 of a merge of
+    seeds 1 and 2 was counted twice when merged with seed 2 again)."""
+    if "seeds" not in rec:
         lo = int(rec.get("first_pass", 0))
-        hi = lo + int(rec["spp"])
-        for a, b, other in ranges.get(rec["seed"], []):
-            if lo < b and a < hi:
-                raise MergeError(f"cannot merge {path}: passes {lo}..{hi - 1} of seed {rec['seed']} "
-                                 f"overlap passes {a}..{b - 1} of {other}, so they share paths "
-                                 "(render other seeds, or disjoint --first-pass ranges)")
-        ranges.setdefault(rec["seed"], []).append((lo, hi, path))
+        return [(rec["seed"], lo, lo + int(rec["spp"]))]
+    seeds = rec["seeds"].split()
+    spps = [int(n) for n in rec.get("merged_spp", "").split()]
+    firsts = [int(n) for n in rec.get("merged_first_pass", " ".join("0" * len(seeds))).split()]
+    if not len(seeds) == len(spps) == len(firsts):
+        raise MergeError("a merged input whose mcpt:seeds, mcpt:merged_spp and "
+                         "mcpt:merged_first_pass disagree in length")
+    return [(seed, lo, lo + n) for seed, n, lo in zip(seeds, spps, firsts)]
 
 
 def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, dict, dict]:
@@ -150,8 +166,9 @@ def merge(paths: list[str | Path], denoise: bool = False) -> tuple[np.ndarray, d
     layers = aov_mod.layers(values, names)
     header = {f"mcpt:{k}": first[k] for k in COMPARED}
     header.update({"mcpt:spp": str(int(spp.sum())), "mcpt:seed": first["seed"],
-                   "mcpt:seeds": " ".join(r["seed"] for r in records),
-                   "mcpt:merged_spp": " ".join(str(int(n)) for n in spp),
+                   "mcpt:seeds": " ".join(seed for r in records for seed, _, _ in pass_ranges(r)),
+                   "mcpt:merged_spp": " ".join(str(hi - lo) for r in records for _, lo, hi in pass_ranges(r)),
+                   "mcpt:merged_first_pass": " ".join(str(lo) for r in records for _, lo, _ in pass_ranges(r)),
                    "mcpt:merged_from": " ".join(str(p) for p in paths)})
     for k in ("scene", "gl_renderer", "mcpt_version", "spp_requested", "aovs"):
         if k in first:

@@ -51,7 +51,10 @@ class StopSignals:
     def __enter__(self) -> StopSignals:
         if threading.current_thread() is threading.main_thread():
             for s in SIGNALS:
-                self._old[s] = signal.signal(s, self._handle)
+                # A signal the parent chose to ignore (nohup: SIGHUP; a background job: SIGINT)
+                # stays ignored (issue #24): the user asked for the render to outlive it.
+                if signal.getsignal(s) is not signal.SIG_IGN:
+                    self._old[s] = signal.signal(s, self._handle)
         return self
 
     def __exit__(self, *exc) -> None:

@@ -65,14 +65,16 @@ def scene_hash(scene) -> str:
 
 
 def settings(scene, *, features_mode: str = "scene", clamp: float | None = None,
-             sampler: str = "sobol", aovs=(), samples_per_draw: int | None = None) -> dict:
+             sampler: str = "sobol", aovs=(), samples_per_draw: int | None = None,
+             digest: str | None = None) -> dict:
     """Everything besides the spp that decides a render's numbers, by name. ``aovs``: the AOVs
     computed (they decide the accumulation targets); recorded only when there are some, so
     checkpoints of plain renders read as before. ``samples_per_draw`` (Renderer.samples_per_draw)
     groups the samples into draws, so it decides the float32 sums' rounding: a checkpoint from a
-    version that drew otherwise (or recorded nothing) is refused rather than resumed off by a bit."""
+    version that drew otherwise (or recorded nothing) is refused rather than resumed off by a bit.
+    ``digest``: the scene_hash taken when the world was built (Prepared.scene_hash), else now."""
     cam, rs = scene.camera, scene.render
-    out = {"scene_hash": scene_hash(scene), "width": cam.width, "height": cam.height,
+    out = {"scene_hash": digest or scene_hash(scene), "width": cam.width, "height": cam.height,
            "bounces": rs.bounces, "seed": rs.seed, "features_mode": features_mode,
            "sampler": sampler, "clamp": None if clamp is None else float(clamp),
            "samples_per_draw": samples_per_draw}
@@ -97,6 +99,29 @@ def mismatch(expected: dict, found: dict, keys=None, here: str = "this render",
 
 def state_path(output: str | Path) -> Path:
     return Path(f"{output}.state.npz")
+
+
+def check_state_path(path: str | Path, *, resume: bool, overwrite: bool) -> Path:
+    """Before any work (issue #24): a checkpoint that could never be written (a name too long for
+    its temporary file, a folder where no file can be created, a state file that cannot be
+    replaced) is one line, not an internal error after the render; and a checkpoint already there
+    is replaced only when asked (``--overwrite``): a render without ``--resume`` would otherwise
+    replace hours of passes with its own."""
+    path = Path(path)
+    if path.exists() and not resume and not overwrite:
+        raise StateError(f"{path}: a checkpoint is already there: --resume carries it on, "
+                         "--overwrite starts again and replaces it")
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise StateError(f"{path}: cannot write the checkpoint in {folder}: "
+                         f"{exc.strerror or exc}") from None
+    if path.exists() and not os.access(path, os.W_OK):  # e.g. immutable (chattr +i)
+        raise StateError(f"{path}: the checkpoint cannot be replaced (not writable)")
+    return path
 
 
 def save(path: str | Path, acc: Accumulator, record: dict) -> None:

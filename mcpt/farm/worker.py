@@ -38,7 +38,6 @@ def _prepared(job: dict):
     if key not in _PREPARED:
         from ..prepare import prepare  # the set-up of a render, not the coordinator's loop
         from ..scene.frame import job_scene  # issue #26: a frame of an animated scene
-        from .state import scene_hash
 
         for old in list(_PREPARED.values()):  # one render at a time per worker: free the last one
             old.renderer.release()
@@ -47,7 +46,7 @@ def _prepared(job: dict):
                     seed=job["seed"], resolution=job["resolution"], gl_backend=job["gl_backend"],
                     features_mode=job["features_mode"], clamp=job["clamp"], sampler=job["sampler"],
                     aovs=tuple(job.get("aovs", ())))
-        found = scene_hash(p.scene)
+        found = p.scene_hash  # of the files this worker built its world from
         if found != job["scene_hash"]:
             raise FarmError(f"{job['scene']} on this worker is not the scene being rendered "
                             f"(hash {found}, expected {job['scene_hash']}); "

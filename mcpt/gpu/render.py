@@ -23,7 +23,6 @@ same float32 and float64 numbers in the same order (bit-identical images, issue 
 from __future__ import annotations
 
 import logging
-import os
 import time
 from dataclasses import dataclass, field
 
@@ -37,6 +36,7 @@ from . import aov as aov_mod
 from . import shader
 from .context import GLContext
 from .features import Features, samples_per_draw
+from .host_memory import available_bytes, host_bytes
 from .pack import Packed
 from .path_state import PathState
 from .tbo import GL_R32F, create_tbo
@@ -85,21 +85,14 @@ def plan_tiles(width: int, height: int, dims: int, limit_texels: int,
     return [(0, y, width, min(rows, height - y)) for y in range(0, height, rows)]
 
 
-def host_bytes(width: int, height: int, targets: int) -> int:
-    """Host memory the accumulation needs: a float64 RGBA sum per target plus one float32 read-back."""
-    return width * height * 4 * targets * (8 + 4)
-
-
 def check_host_memory(width: int, height: int, targets: int) -> None:
-    """Refuse, before allocating, an image whose accumulation would not fit in physical memory."""
-    need = host_bytes(width, height, targets)
-    try:
-        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
-        return
-    if need > 0.5 * total:
-        raise RenderError(f"{width}x{height} needs {need / 2**30:.1f} GiB of host memory for "
-                          f"accumulation, more than half of the {total / 2**30:.1f} GiB here")
+    """Refuse, before allocating, a render whose measured peak memory (host_memory.py) would not
+    fit in the memory available."""
+    need, free = host_bytes(width, height, targets), available_bytes()
+    if free is not None and need > free:
+        raise RenderError(f"{width}x{height} with {targets} accumulation target(s) needs about "
+                          f"{need / 2**30:.1f} GiB of host memory, more than the "
+                          f"{free / 2**30:.1f} GiB available here")
 
 
 def drop_nonfinite(sums: np.ndarray, passes: int) -> np.ndarray:
@@ -259,6 +252,8 @@ class Renderer:
                                           lambda v: self._uniform("u_continue", v),
                                           limit=n * (self.features.bounces + 2))
                 p += n
+                if interrupt is not None:  # issue #24: time the draw's work, not its queueing
+                    ctx.finish()
                 stopping = interrupt is not None and interrupt(p)
                 if p % chunk == 0 or p == stop or stopping:
                     ctx.scissor = None

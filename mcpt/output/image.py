@@ -168,3 +168,21 @@ def write_image(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
         write_exr(path, rgb, metadata, layers, **extra)
     else:
         write_png(path, rgb, exposure, **extra)
+
+
+def write_images(paths, rgb: np.ndarray, metadata: dict | None = None, exposure: float = 0.0,
+                 layers: dict | None = None, alpha: np.ndarray | None = None) -> list:
+    """Every output of one render or merge, one after the other. A stop signal during the writes
+    (signals.Interrupted) leaves the file being written as it was; the exception then records
+    which outputs hold the new image and which the old (issue #24: the message named no file)."""
+    done: list = []
+    try:
+        for path in paths:
+            write_image(path, rgb, metadata, exposure, layers=layers, alpha=alpha)
+            done.append(str(path))
+    except BaseException as exc:
+        if hasattr(exc, "signum"):  # signals.Interrupted (output/ does not import farm/)
+            exc.written, exc.kept = done, [str(p) for p in paths if str(p) not in done]
+        raise
+    return done
+

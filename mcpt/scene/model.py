@@ -141,8 +141,10 @@ class RenderSettings(StrictModel):
 
     spp: Annotated[int, Field(ge=1, le=2**32 - 1)] = 64
     """Samples per pixel, 1 .. 2^32 - 1 (the sample index is 32-bit: mcpt/shading/sobol.py)."""
-    bounces: Annotated[int, Field(ge=0)] = 8
-    """Maximum scattering events per path: 0 = emitters only, 1 = direct light only."""
+    bounces: Annotated[int, Field(ge=0, le=2**24 - 1)] = 8
+    """Maximum scattering events per path: 0 = emitters only, 1 = direct light only; at most
+    2^24 - 1 (issue #24: the shader keeps the bounce index k <= bounces + 1 in a float32 texel
+    between draws, exact up to 2^24, and a 32-bit int; beyond, paths silently ended at once)."""
     seed: Annotated[int, Field(ge=0, lt=2**63)] = 0
     """Random seed, 0 <= seed < 2**63 (fits a signed 64-bit integer)."""
     transparent: bool = False

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import re
 from pathlib import Path
 
@@ -15,20 +16,23 @@ from .overrides import blame
 
 #: Largest scene file read (bytes): scenes are small, meshes live in their own files.
 MAX_FILE_BYTES = 16 * 2**20
-#: Most values a document may expand to once its aliases are followed. YAML aliases share one
-#: node, so "billion laughs" documents are tiny to read but explode for anything that walks the
-#: data (validation, error messages): refuse them before that.
+#: Most values a document's aliases may add once followed. YAML aliases share one node, so
+#: "billion laughs" documents are tiny to read but explode for anything that walks the data
+#: (validation, error messages): refuse them before that. Values written out in the file count
+#: once each (issue #24: 12 500 materials without an alias were refused); their number is bounded
+#: by MAX_FILE_BYTES.
 MAX_VALUES = 100_000
 
 
 def _expanded_size(node: yaml.Node, memo: dict[int, int], active: set[int]) -> int:
-    """Values ``node`` stands for with every alias expanded (memoised: linear in the node graph);
-    a node that contains itself counts as unbounded."""
+    """Values ``node`` stands for with every alias expanded (memoised: linear in the node graph;
+    ``memo`` ends with one entry per distinct node); a node that contains itself counts as
+    unbounded."""
     key = id(node)
     if key in memo:
         return memo[key]
     if key in active:
-        return MAX_VALUES + 1
+        return 2**64
     active.add(key)
     if isinstance(node, yaml.SequenceNode):
         size = 1 + sum(_expanded_size(n, memo, active) for n in node.value)
@@ -38,11 +42,31 @@ def _expanded_size(node: yaml.Node, memo: dict[int, int], active: set[int]) -> i
     else:
         size = 1
     active.discard(key)
-    memo[key] = size = min(size, MAX_VALUES + 1)
+    memo[key] = size
     return size
 
 
-class _SceneLoader(yaml.SafeLoader):
+def _alias_values(node: yaml.Node) -> int:
+    """Values the aliases of the document under ``node`` add: its expanded size less its nodes."""
+    memo: dict[int, int] = {}
+    return _expanded_size(node, memo, set()) - len(memo)
+
+
+# libyaml's parser where PyYAML was built with it (issue #24: 15x faster on large documents); the
+# pure-Python one otherwise. Both give nodes with marks, and SafeLoader's constructor and resolver.
+if yaml.__with_libyaml__:
+    import yaml.cyaml
+
+    class _Base(yaml.cyaml.CParser, yaml.constructor.SafeConstructor, yaml.resolver.Resolver):
+        def __init__(self, stream: str) -> None:
+            yaml.cyaml.CParser.__init__(self, stream)
+            yaml.constructor.SafeConstructor.__init__(self)
+            yaml.resolver.Resolver.__init__(self)
+else:  # pragma: no cover - PyYAML without libyaml
+    _Base = yaml.SafeLoader
+
+
+class _SceneLoader(_Base):
     """SafeLoader that knows where things are, refuses duplicate keys and reads ``1e3`` as a float.
 
     Usage: :meth:`compose_indexed` composes the node tree and fills :attr:`lines`; the normal
@@ -60,10 +84,10 @@ class _SceneLoader(yaml.SafeLoader):
         node = self.get_single_node()
         if node is not None:
             self.lines[()] = node.start_mark.line + 1
-            if _expanded_size(node, {}, set()) > MAX_VALUES:
+            if _alias_values(node) > MAX_VALUES:
                 raise SceneError(self.file, self.lines[()], "",
-                                 f"the document expands to more than {MAX_VALUES} values through "
-                                 "YAML aliases (&anchor / *alias); a scene needs far fewer")
+                                 f"YAML aliases (&anchor / *alias) add more than {MAX_VALUES} "
+                                 "values to the document; a scene needs far fewer")
             self._index(node, (), set())
         return node
 
@@ -85,7 +109,7 @@ class _SceneLoader(yaml.SafeLoader):
                 if key_node.tag == "tag:yaml.org,2002:merge":  # "<<: *base" — own keys win
                     merges.append(value_node)
                     continue
-                if key_node.tag == "tag:yaml.org,2002:bool" and key_node.style is None:
+                if key_node.tag == "tag:yaml.org,2002:bool" and not key_node.style:  # plain: None or ""
                     # YAML 1.1 reads a plain `on:`/`yes:` key as True; every key here is a name.
                     key_node.tag = "tag:yaml.org,2002:str"
                 key = self._key_text(key_node)
@@ -125,6 +149,8 @@ def parse_scene(text: str, path: str | Path, overrides=()) -> Scene:
     path = Path(path)
     file = str(path)
     loader = _SceneLoader(text, file)
+    collecting = gc.isenabled()
+    gc.disable()  # issue #24: the collector's passes over a growing node tree made parsing quadratic
     try:
         try:
             node = loader.compose_indexed()
@@ -143,6 +169,8 @@ def parse_scene(text: str, path: str | Path, overrides=()) -> Scene:
             raise SceneError(file, None, "", f"malformed YAML: {exc}") from None
     finally:
         loader.dispose()
+        if collecting:
+            gc.enable()
     if node is None:
         raise SceneError(file, 1, "", "the file is empty (expected a mapping with camera and meshes)")
     if not isinstance(data, dict):
