@@ -15,7 +15,7 @@ from ...shading.materials import fdr_internal
 from ...shading.metals import METALS
 from ..fields import TEXTURE_SUFFIXES
 from . import values as V
-from .xmltree import Node, deref
+from .xmltree import Node, deref, resolve_file
 
 log = logging.getLogger("mcpt")
 
@@ -63,7 +63,7 @@ def texture(node: Node) -> dict:
     props = V.properties(node)
     if "filename" not in props:
         raise node.error("a bitmap needs a filename (in-memory bitmaps cannot come from a file)")
-    path = (node.file.parent / V.as_string(props["filename"])).resolve()
+    path = resolve_file(node, V.as_string(props["filename"]))
     if path.suffix.lower() not in TEXTURE_SUFFIXES:
         raise props["filename"].error(f"{path.suffix or '(none)'} images are not supported by mcpt "
                                       f"(8-bit formats: {', '.join(TEXTURE_SUFFIXES)})")
