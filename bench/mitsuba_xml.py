@@ -29,14 +29,25 @@ def load(mi, path: str, params: dict[str, str], resolution: str | None):
     if resolution is None:
         return mi.load_file(path, **params)
     width, height = (int(v) for v in resolution.lower().split("x"))
+    # What mi.load_file does (mitsuba3 src/core/python/parser.cpp): the scene's folder first in
+    # the file resolver, equivalent objects and meshes merged; then the films resized.
     cfg = mi.parser.ParserConfig(mi.variant())
-    state = mi.parser.parse_file(cfg, path, **params)
-    for node in state.nodes:
-        if node.type == mi.ObjectType.Film:
-            node.props["width"] = width
-            node.props["height"] = height
-    mi.parser.transform_all(cfg, state)
-    return mi.parser.instantiate(cfg, state)
+    cfg.merge_equivalent = cfg.merge_meshes = True
+    backup = mi.file_resolver()
+    resolver = mi.FileResolver(backup)
+    resolver.prepend(str(Path(path).resolve().parent))
+    mi.set_file_resolver(resolver)
+    try:
+        state = mi.parser.parse_file(cfg, path, **params)
+        for node in state.nodes:
+            if node.type == mi.ObjectType.Film:
+                node.props["width"] = width
+                node.props["height"] = height
+        mi.parser.transform_all(cfg, state)
+        objects = mi.parser.instantiate(cfg, state)
+    finally:
+        mi.set_file_resolver(backup)
+    return objects[0] if isinstance(objects, list) else objects
 
 
 def main() -> None:

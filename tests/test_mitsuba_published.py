@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mcpt.scene import SceneError
@@ -86,3 +87,35 @@ def test_a_sampler_declared_at_the_top_and_referenced_by_the_sensor(tmp_path):
                 '<shape type="sphere"/>', camera=False)
     data, _ = scene_data(top)
     assert data["render"]["spp"] == 7
+
+
+def test_rotate_uses_the_axis_unnormalised_as_mitsuba_does(tmp_path):
+    # Mitsuba 3.9.1: ScalarTransform4f().rotate([0, 0, 2], 90) @ (1, 0, 0) = (0, 2, 0), and
+    # rotate([1, 1, 1], 120) @ (1, 0, 0) = (1, 2.36603, 0.633975); its hello.xml rotates about (0, 1, 1).
+    from mcpt.scene.mitsuba.values import transform
+    from mcpt.scene.mitsuba.xmltree import read_tree
+
+    def moved(op: str) -> np.ndarray:
+        path = tmp_path / "t.xml"
+        path.write_text(f'<scene version="3.0.0"><transform name="t">{op}</transform></scene>')
+        return transform(read_tree(path).root.children[0]) @ [1.0, 0.0, 0.0, 1.0]
+
+    np.testing.assert_allclose(moved('<rotate z="2" angle="90"/>'), [0, 2, 0, 1], atol=1e-12)
+    np.testing.assert_allclose(moved('<rotate x="1" y="1" z="1" angle="120"/>'),
+                               [1, 2.36603, 0.633975, 1], atol=1e-5)
+
+
+def test_generated_vertex_normals_are_angle_weighted_as_mitsubas(tmp_path):
+    # A file without normals shades with Mitsuba's generated ones (src/render/mesh.cpp,
+    # recompute_normals: unit face normals weighted by the corner angle). Vertex 1 (the origin)
+    # has a 90-degree corner in the z = 0 face (normal +z) and a 45-degree corner in the x = 0 face
+    # (normal +x): its normal is (45, 0, 90) normalised, where an unweighted mean gives (1, 0, 1).
+    from mcpt.shapes.mesh import load_mesh
+
+    obj = tmp_path / "fold.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 1 1\nf 1 2 3\nf 1 3 4\n")
+    mesh = load_mesh(obj, need_normals=True)
+    at_origin = np.flatnonzero(np.all(mesh.vertices == 0.0, axis=1))
+    assert at_origin.size == 1
+    expected = np.array([45.0, 0.0, 90.0]) / np.hypot(45.0, 90.0)
+    np.testing.assert_allclose(mesh.normals[at_origin[0]], expected, atol=1e-6)
