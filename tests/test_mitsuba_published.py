@@ -119,3 +119,18 @@ def test_generated_vertex_normals_are_angle_weighted_as_mitsubas(tmp_path):
     assert at_origin.size == 1
     expected = np.array([45.0, 0.0, 90.0]) / np.hypot(45.0, 90.0)
     np.testing.assert_allclose(mesh.normals[at_origin[0]], expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("value, accepted", [("1", True), ("1, 1, 1", True), ("0.5", False)])
+def test_specular_reflectance_spelled_out_as_the_default_is_accepted(tmp_path, value, accepted):
+    # Veach's MIS scene (mitsuba-data docs/scenes/include/veach_mis.xml) writes
+    # <rgb name="specular_reflectance" value="1"/> on its roughplastic plates: Mitsuba's default.
+    top = scene(tmp_path / "top.xml",
+                '<shape type="sphere"><bsdf type="roughplastic"><float name="alpha" value="0.1"/>'
+                f'<rgb name="specular_reflectance" value="{value}"/></bsdf></shape>')
+    if accepted:
+        data, _ = scene_data(top)
+        assert [m["type"] for m in data["materials"].values()] == ["roughplastic"]
+    else:
+        with pytest.raises(SceneError, match="specular_reflectance is not supported"):
+            scene_data(top)

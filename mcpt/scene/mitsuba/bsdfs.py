@@ -101,9 +101,18 @@ def _albedo(bsdf: Node, props, key, default, ids) -> dict:
 
 
 def _no(props: dict[str, Node], bsdf: Node, *keys: str) -> None:
+    """Refuse ``keys`` unless given as Mitsuba's own default of 1 (``specular_reflectance`` /
+    ``specular_transmittance``: published scenes spell it out, e.g. veach_mis.xml's plates)."""
     for key in keys:
-        if key in props:
+        if key in props and not _is_default_one(props[key]):
             raise props[key].error(f"{bsdf.get('type')} parameter {key} is not supported by mcpt")
+
+
+def _is_default_one(node: Node) -> bool:
+    """A ``specular_*`` value equal to Mitsuba's default 1 (a plain value, not a texture)."""
+    if node.tag not in ("rgb", "float", "spectrum"):
+        return False
+    return all(c == 1.0 for c in V.as_color(node))
 
 
 def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
