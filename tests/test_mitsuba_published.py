@@ -124,13 +124,13 @@ def test_generated_vertex_normals_are_angle_weighted_as_mitsubas(tmp_path):
 @pytest.mark.parametrize("value, accepted", [("1", True), ("1, 1, 1", True), ("0.5", False)])
 def test_specular_reflectance_spelled_out_as_the_default_is_accepted(tmp_path, value, accepted):
     # Veach's MIS scene (mitsuba-data docs/scenes/include/veach_mis.xml) writes
-    # <rgb name="specular_reflectance" value="1"/> on its roughplastic plates: Mitsuba's default.
+    # <rgb name="specular_reflectance" value="1"/> on its (rough) plastic plates: Mitsuba's default.
     top = scene(tmp_path / "top.xml",
-                '<shape type="sphere"><bsdf type="roughplastic"><float name="alpha" value="0.1"/>'
+                '<shape type="sphere"><bsdf type="plastic">'
                 f'<rgb name="specular_reflectance" value="{value}"/></bsdf></shape>')
     if accepted:
         data, _ = scene_data(top)
-        assert [m["type"] for m in data["materials"].values()] == ["roughplastic"]
+        assert [m["type"] for m in data["materials"].values()] == ["plastic"]
     else:
         with pytest.raises(SceneError, match="specular_reflectance is not supported"):
             scene_data(top)
