@@ -6,7 +6,7 @@ imported; this module only imports them, so no command module imports another.
 
 from __future__ import annotations
 
-from . import bench, convert, info, merge, render  # noqa: F401  (each adds its command to `main`)
+from . import bench, convert, encode, info, merge, render  # noqa: F401  (each adds its command to `main`)
 from .group import main
 
 __all__ = ["main"]

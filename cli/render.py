@@ -61,12 +61,16 @@ from .options import finite, positive_finite, render_options
 @click.option("--camera", default=None, metavar="NAME",
               help="glTF only: the camera to look through, by name or index (default: the first); "
                    "the same as -D camera=NAME.")
+@click.option("--frames", "frames_text", default=None, metavar="1-240|1,5,10-20",
+              help="Animated scene: render these frames, one image each (-o out/shot.####.exr: "
+                   "the #s are the zero-padded frame number); an output with # alone renders the "
+                   "scene's animation.frames (issue #26, cli/sequence.py).")
 @click.option("--json", "as_json", is_flag=True, help="Print the render summary as JSON on stdout.")
 @click.option("--quiet", is_flag=True, help="No progress output.")
 @reports_errors
 def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode, sampler, outputs,
            overrides, exposure, clamp, aov_text, denoise, time_budget, checkpoint, resume, first_pass,
-           workers, scheduler, camera, progress_mode, as_json, quiet):
+           workers, scheduler, camera, progress_mode, as_json, quiet, frames_text):
     """Render SCENE_FILE (YAML, Mitsuba 3 XML, glTF 2.0 .gltf/.glb) to an image."""
     started = time.perf_counter()
     from mcpt.api import Options
@@ -86,6 +90,11 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
                    time_budget=time_budget, checkpoint=checkpoint, resume=resume,
                    first_pass=first_pass, overrides=tuple(overrides), workers=workers,
                    scheduler=scheduler, progress=prog, started=started)
+    if frames_text is not None or any("#" in str(o) or str(o).lower().endswith(".mp4")
+                                      for o in outputs):  # issue #26: a sequence
+        from .sequence import render_frames
+
+        return render_frames(scene_file, opts, frames_text, as_json, quiet)
     with StopSignals() as signals:
         out = render_loop(scene_file, opts, signals)
     if prog is not None:

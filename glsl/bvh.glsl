@@ -298,9 +298,17 @@ void bvh_count_flush(bool shadow) {
 #define BVH_FLUSH(shadow)
 #endif
 
+#if MCPT_OPACITY
+#include "opacity.glsl"
+#endif
+
 bool trace_closest(Ray r, out Hit h) {
     h.t = INF; h.tri = -1; h.bary = vec2(0.0);
+#if MCPT_OPACITY
+    bool found = trace_through(r, INF, false, h);  // opacity.glsl: cut-outs let the ray through
+#else
     bool found = trace(r, h, false);
+#endif
     BVH_FLUSH(false);
     return found;
 }
@@ -308,7 +316,11 @@ bool trace_closest(Ray r, out Hit h) {
 // True when nothing blocks the segment from r.o to r.o + tmax * r.d.
 bool visible(Ray r, float tmax) {
     Hit h; h.t = tmax; h.tri = -1; h.bary = vec2(0.0);
+#if MCPT_OPACITY
+    bool blocked = trace_through(r, tmax, true, h);
+#else
     bool blocked = trace(r, h, true);
+#endif
     BVH_FLUSH(true);
     return !blocked;
 }

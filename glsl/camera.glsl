@@ -12,6 +12,11 @@ uniform vec3 u_cam_forward;
 uniform vec3 u_cam_right;
 uniform vec3 u_cam_up;
 uniform ivec2 u_resolution;
+#if MCPT_CAMERA_MOVES
+// Issue #26: an animated camera's eye relative to the geometry's origin (the rest pose's camera
+// position, mcpt/scene/animation.py), so a moving camera changes uniforms, not the upload.
+uniform vec3 u_cam_eye;
+#endif
 #if MCPT_FILTER
 #include "pixel_filter.glsl"
 #endif
@@ -53,6 +58,9 @@ Ray camera_ray(ivec2 pixel, vec2 u, vec2 lens) {
 #else
     r.o = vec3(0.0);
     r.d = normalize(u_cam_forward + ndc.x * u_cam_right + ndc.y * u_cam_up);
+#endif
+#if MCPT_CAMERA_MOVES
+    r.o += u_cam_eye;  // issue #26: the eye moved from the geometry's origin
 #endif
     return r;
 }

@@ -5,7 +5,7 @@
 //   vec3  env_radiance(vec3 d)                   radiance a ray escaping along unit world d sees
 //   vec3  env_sample(vec2 u, out float pdf)      unit world direction, pdf per steradian
 //   float env_pdf(vec3 d)                        the pdf env_sample has at d (the same function)
-//   vec3  env_radiance_pdf(vec3 d, out float pdf)           both at once (5 texel fetches)
+//   vec3  env_radiance_pdf(vec3 d, out float pdf)           both at once (4 texel fetches)
 //   vec3  env_sample_le(vec2 u, out float pdf, out vec3 le) sample + its radiance at once
 //
 // Mapping, exactly Mitsuba 3's (src/emitters/envmap.cpp v3.9.1: uv_to_direction l. 439-446,
@@ -16,8 +16,10 @@
 // poles); the radiance is bilinear between them.
 //
 // Sampling: pbrt-v4 sec. A.5 "Piecewise-constant 2D distributions" over the W x (H - 1) cells
-// between four texels: a marginal CDF picks the row of cells, that row's conditional CDF the cell
-// (each a binary search), with cell probabilities proportional to the luminance integrated over
+// between four texels: a marginal distribution picks the row of cells, that row's conditional one
+// the cell, each from an alias table (Walker / Vose, pbrt-v4 sec. A.1; mcpt/shading/alias.py):
+// one texel read each and no loop, where binary searches over CDFs cost log2(H) + log2(W)
+// dependent reads and loop trips under llvmpipe's 8-lane masks. Cell probabilities are proportional to the luminance integrated over
 // the cell's solid angle (luminance x sin theta, integrated exactly on the host). Inside the cell
 // the direction is uniform in (phi, cos theta), so with pdf_sa = pdf_uv / (2 pi^2 sin theta)
 // (pbrt-v4 sec. 12.5; Mitsuba l. 352-356) the 1 / sin theta cancels: the solid-angle pdf is a
@@ -27,27 +29,29 @@
 // W x H texels (R, G, B, pdf of the cell whose top-left corner this texel is) as float bits,
 // the image row by row from its top row (v = 0, +Y). The last row starts no cell (pdf 0).
 layout(binding = 10) uniform usamplerBuffer u_env_texels;
-// Floats, 4 per texel: [0, H-1) the marginal CDF over rows of cells (inclusive prefix sums, last
-// exactly 1), then at (H - 1) + j W + i the conditional CDF of cell i in row j (the same form).
-layout(binding = 11) uniform usamplerBuffer u_env_cdf;
+// Alias-table entries (threshold bits, alias index), 2 per texel: [0, H') the table over the rows
+// of cells, then at H' + j W' + i entry i of row j's table; H', W' = env_pow2(H - 1), env_pow2(W).
+layout(binding = 11) uniform usamplerBuffer u_env_alias;
 uniform ivec2 u_env_size;     // (W, H) texels, W >= 2, H >= 3
 uniform mat3 u_env_to_world;  // emitter-to-world rotation or mirror: its transpose is its inverse
 
-float env_cdf(int k) { return uintBitsToFloat(texelFetch(u_env_cdf, k >> 2)[k & 3]); }
+// The power of two >= n (n >= 1): an alias table's bucket count (alias.py padded_size).
+int env_pow2(int n) { return 1 << (findMSB(n - 1) + 1); }
 
-// The bucket of u in the inclusive CDF at [base, base + n): the first entry above u, and where u
-// lies inside it (t in [0, 1]), the remainder reused to place the point in the bucket.
-int env_search(int base, int n, float u, out float t) {
-    int lo = 0, hi = n - 1;
-    while (lo < hi) {
-        LOOP_TICK();
-        int mid = (lo + hi) >> 1;
-        if (env_cdf(base + mid) > u) hi = mid; else lo = mid + 1;
-    }
-    float c0 = lo > 0 ? env_cdf(base + lo - 1) : 0.0;
-    float c1 = env_cdf(base + lo);
-    t = c1 > c0 ? clamp((u - c0) / (c1 - c0), 0.0, 1.0) : 0.5;
-    return lo;
+// The item that u picks from the n-bucket alias table at entry base (n a power of two, so u n
+// and its fraction f are exact): bucket b = floor(u n) itself if f < q_b, else its alias; t is
+// f remapped to [0, 1) within the choice, reused to place the point in the item.
+int env_alias_pick(int base, int n, float u, out float t) {
+    float x = u * float(n);
+    int b = min(int(x), n - 1);
+    float f = x - float(b);
+    int e = base + b;
+    uvec4 tx = texelFetch(u_env_alias, e >> 1);
+    uvec2 qa = (e & 1) == 0 ? tx.xy : tx.zw;
+    float q = uintBitsToFloat(qa.x);
+    bool own = f < q;
+    t = clamp(own ? f / q : (f - q) / (1.0 - q), 0.0, 1.0);
+    return own ? b : int(qa.y);
 }
 
 // Texel index of the top-left corner of world direction d's cell; dx = offset to the corner on its
@@ -113,9 +117,10 @@ vec2 env_band_point(int j, int hc, float t) {
 // cell's only for a direction on a cell border (float rounding), a set of measure zero.
 vec3 env_sample_le(vec2 u, out float pdf, out vec3 le) {
     int W = u_env_size.x, hc = u_env_size.y - 1;
+    int hp = env_pow2(hc), wp = env_pow2(W);
     float tv, tu;
-    int j = env_search(0, hc, u.y, tv);
-    int i = env_search(hc + j * W, W, u.x, tu);
+    int j = env_alias_pick(0, hp, u.y, tv);
+    int i = env_alias_pick(hp + j * wp, wp, u.x, tu);
     float phi = (float(i) + 0.5 + tu) * (2.0 * PI / float(W));
     vec2 cs = env_band_point(j, hc, tv);
     vec3 d = u_env_to_world * vec3(sin(phi) * cs.y, cs.x, -cos(phi) * cs.y);

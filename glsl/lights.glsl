@@ -12,6 +12,7 @@
 // type is one new file pair plus one line in each dispatch marked below.
 #include "path_state.glsl"
 #include "sampler.glsl"
+#include "normal_map.glsl"
 #include "bvh.glsl"
 #include "materials.glsl"
 
@@ -185,8 +186,9 @@ void next_event(inout Path P, Material m, vec3 ns, vec3 ng, vec3 wo, vec3 xo, in
     LightSample ls = light_sample(xo, dim);
     float pdf_b;
     vec3 fc = bsdf_eval(m, ns, wo, ls.wi, pdf_b);
-#if MCPT_SMOOTH_NORMALS
+#if MCPT_SMOOTH_NORMALS || MCPT_NORMAL_MAPS
     if (dot(ng, ls.wi) <= 0.0) fc = vec3(0.0);  // below the real surface: no light leaks in
+    fc *= normal_map_shadow(ls.wi);  // normal_map.glsl (1 without normal maps)
 #endif
     if (ls.pdf > 0.0 && max(fc.r, max(fc.g, fc.b)) > 0.0) {
         if (light_visible(ls, xo)) {

@@ -177,7 +177,7 @@ bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec2 u, out BsdfSample
 // other when refracted (ng: turned to the side the path came from; with shading normals this
 // is the light-leak check, glsl/pathtrace.frag "Normals"). False: the path ends.
 bool bsdf_sample_side_ok(BsdfSample s, vec3 ng) {
-#if MCPT_SMOOTH_NORMALS || MCPT_MAT_DIELECTRIC
+#if MCPT_SMOOTH_NORMALS || MCPT_MAT_DIELECTRIC || MCPT_NORMAL_MAPS
     return (dot(s.wi, ng) > 0.0) != s.transmit;
 #else
     return true;

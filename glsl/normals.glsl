@@ -5,9 +5,8 @@
 #include "geometry.glsl"
 #include "materials.glsl"
 
-#if MCPT_SMOOTH_NORMALS
-layout(binding = 7) uniform usamplerBuffer u_normals;
-
+#if MCPT_SMOOTH_NORMALS || MCPT_NORMAL_MAPS
+// Also the tangents' decoding (glsl/normal_map.glsl).
 vec3 oct_decode(uint v) {
     vec2 p = unpackSnorm2x16(v);
     vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
@@ -16,6 +15,10 @@ vec3 oct_decode(uint v) {
     n.y += n.y >= 0.0 ? -t : t;
     return n;  // not unit: the interpolation below normalises once
 }
+#endif
+
+#if MCPT_SMOOTH_NORMALS
+layout(binding = 7) uniform usamplerBuffer u_normals;
 
 // The interpolated vertex normal at barycentrics (b1, b2); unnormalised (may be zero where the
 // corner normals cancel, which the caller must treat as "no shading normal").

@@ -7,6 +7,7 @@
 #include "materials.glsl"
 #include "normals.glsl"
 #include "texture.glsl"
+#include "normal_map.glsl"
 #include "camera.glsl"
 #include "path_state.glsl"
 #include "lights.glsl"
@@ -84,6 +85,7 @@ bool path_step(inout Path P) {
     vec3 ng = cos_o < 0.0 ? n : -n;  // two-sided: the side the path came from
     vec3 wo = -ray.d;
     vec3 ns = shading_normal(m, h, ng, cos_o, wo);  // normals.glsl
+    if (!normal_map_apply(h, cos_o < 0.0, wo, ns)) return false;  // normal_map.glsl
     m.albedo = albedo_at(m, h);                     // texture.glsl
     if (material_black(m)) return false;  // pure emitter
     vec3 x = tri_point(h.tri, h.bary);
@@ -95,6 +97,7 @@ bool path_step(inout Path P) {
     BsdfSample s;
     if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return false;
     if (!bsdf_sample_side_ok(s, ng)) return false;
+    s.weight *= normal_map_shadow(s.wi);  // normal_map.glsl (1 without normal maps)
     path_scatter(P, s, x, ng, xo);  // path_state.glsl
     return roulette(P, k, dim);     // roulette.glsl
 }
@@ -122,6 +125,10 @@ vec3 sample_value(vec3 L) {
 // samples that ended in it, minus what earlier draws already added for the one they continued
 // (telescoping, squares likewise), so a sample's draws sum to its value.
 uniform int u_samples;
+// Draw copies (mcpt/gpu/render.py draw_copies): an image smaller than a few of llvmpipe's 64 x 64
+// tiles, each shaded by one thread, is drawn u_copies times side by side; copy c takes the draw's
+// samples c, c + u_copies, ... and the host adds the copies up, so every core gets work.
+uniform int u_copies;
 
 // What a draw adds to a pixel of the accumulation target (see above).
 struct Tally {
@@ -175,21 +182,23 @@ void sample_over(inout Path P) {
 
 void main() {
     ivec2 frag = ivec2(gl_FragCoord.xy);
-    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
+    int copy = frag.x / u_resolution.x;
+    ivec2 pixel = ivec2(frag.x - copy * u_resolution.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
     ivec2 local = pixel - u_tile.xy;
     int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
     Path P;
-    int j = 0;
+    int j = copy;
+    if (j >= u_samples) discard;  // a copy with no sample in this draw adds nothing
 #if MCPT_CONTINUE
     if (u_continue != 0) {
         if (!path_stored(frag)) discard;  // finished in an earlier draw
         P = path_load(frag, j);
         sampler_init(pix, tile_pix, j);
     } else {
-        P = sample_start(pixel, pix, tile_pix, 0);
+        P = sample_start(pixel, pix, tile_pix, j);
     }
 #else
-    P = sample_start(pixel, pix, tile_pix, 0);
+    P = sample_start(pixel, pix, tile_pix, j);
 #endif
     Tally T = tally_start(sample_value(P.L));  // what earlier draws added for this sample
     bool unfinished = false;
@@ -201,7 +210,8 @@ void main() {
         if (path_step(P)) continue;
         sample_over(P);
         tally_sample(T, sample_value(P.L));
-        if (++j >= u_samples) break;
+        j += u_copies;
+        if (j >= u_samples) break;
         P = sample_start(pixel, pix, tile_pix, j);
     }
     // llvmpipe's limiter ended the loop itself (a bounce took more than the rest of the budget,
@@ -209,14 +219,15 @@ void main() {
     // (The compiler knows how the loop's breaks leave j, so the counter, not j, tells.)
     if (!unfinished && loop_limit_reached()) {
         sample_over(P);
-        tally_drop(T, float(u_samples - j));
+        tally_drop(T, float((u_samples - j + u_copies - 1) / u_copies));  // this copy's rest
     }
     if (unfinished) {
         vec3 v = sample_value(P.L);
         if (non_finite(v)) {  // not worth continuing: dropped now
             sample_over(P);
             tally_drop(T, 1.0);
-            unfinished = ++j < u_samples;
+            j += u_copies;
+            unfinished = j < u_samples;
             if (unfinished) P = sample_start(pixel, pix, tile_pix, j);
         } else {
             tally_add(T, v);

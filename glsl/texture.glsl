@@ -1,6 +1,8 @@
 // Albedo textures (host side: mcpt/shading/texture.py documents the buffer; UVs: pack_uvs there).
 // Texels stay sRGB-encoded, 8 bits a channel; each of the four taps of a bilinear lookup is
 // decoded to linear RGB before the interpolation, as a GPU's sRGB texture does.
+// A texture may carry a UV transform (Mitsuba's to_uv) and may be a procedural checkerboard
+// (glsl/checkerboard.glsl); both are flags in its header, read per lookup.
 // The buffers and lookups are compiled only with MCPT_TEXTURES; albedo_at always.
 #include "geometry.glsl"
 #include "materials.glsl"
@@ -8,6 +10,7 @@
 #if MCPT_TEXTURES
 layout(binding = 8) uniform usamplerBuffer u_uvs;       // 2 texels per triangle (BVH order)
 layout(binding = 9) uniform usamplerBuffer u_textures;  // headers, then 4 pixels per texel
+#include "checkerboard.glsl"
 
 vec2 tri_uv(int tri, vec2 bary) {
     vec4 a = uintBitsToFloat(texelFetch(u_uvs, 2 * tri));
@@ -45,13 +48,21 @@ float tex_reduce(float u, uint mode) {
 
 vec3 tex_pixel(uvec4 hdr, int x, int y) {
     int i = y * int(hdr.y) + x;
-    uvec4 q = texelFetch(u_textures, int(hdr.x) + (i >> 2));
-    return srgb_decode(q[i & 3]);
+    uint p = texelFetch(u_textures, int(hdr.x) + (i >> 2))[i & 3];
+    if ((hdr.w & 32u) != 0u) return vec3(uvec3(p, p >> 8, p >> 16) & 0xffu) * (1.0 / 255.0);  // linear
+    return srgb_decode(p);
 }
 
 // Linear RGB of texture `id` at (u, v); v points up (row 0 of the buffer is the image's bottom).
 vec3 texture_rgb(int id, vec2 uv) {
     uvec4 hdr = texelFetch(u_textures, id);
+    if ((hdr.w & 8u) != 0u) {  // a UV transform leads the data: (a, b, c, d), (e, f, 0, 0)
+        vec4 p = uintBitsToFloat(texelFetch(u_textures, int(hdr.x)));
+        vec2 q = uintBitsToFloat(texelFetch(u_textures, int(hdr.x) + 1).xy);
+        uv = vec2(p.x * uv.x + p.y * uv.y + p.z, p.w * uv.x + q.x * uv.y + q.y);
+        hdr.x += 2u;
+    }
+    if ((hdr.w & 16u) != 0u) return checkerboard_rgb(int(hdr.x), uv);
     int w = int(hdr.y), h = int(hdr.z);
     uint mode = hdr.w & 3u;
     vec2 st = vec2(tex_reduce(uv.x, mode), tex_reduce(uv.y, mode)) * vec2(w, h);

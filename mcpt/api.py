@@ -5,6 +5,8 @@
     run            the same loop on a scene prepared once (benchmarks render it many times)
     render_scene   one call: a scene in, images out (``render`` with keyword arguments)
     describe       what ``mcpt info`` shows of a prepared scene
+    render_sequence  the frames of an animated scene (mcpt/sequence.py), each through ``run``
+    at_frame       an animated scene at frame N (mcpt/scene/frame.py): a still of it is frame N
 
 Every render goes through mcpt/render.py; nothing here draws a pass itself.
 """
@@ -17,10 +19,13 @@ from .gpu.aov import AOVS
 from .gpu.aov import parse as parse_aovs
 from .prepare import Prepared, prepare
 from .render import Options, Outcome, render, run
+from .scene.frame import at_frame
+from .sequence import render_sequence
 from .shading.camera import camera_summary
 from .shading.lights import describe_lights
 
-__all__ = ["Options", "Outcome", "Prepared", "describe", "prepare", "render", "render_scene", "run"]
+__all__ = ["Options", "Outcome", "Prepared", "at_frame", "describe", "prepare", "render", "render_scene",
+           "render_sequence", "run"]
 
 
 def render_scene(scene, *, outputs=(), spp=None, bounces=None, seed=None, resolution=None,

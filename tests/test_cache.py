@@ -355,7 +355,7 @@ def test_a_scene_with_every_light_type_is_cached_and_an_edited_environment_map_m
         assert hit.lights.kinds == built.lights.kinds and len(hit.lights.punctual) == len(built.lights.punctual)
         assert np.array_equal(hit.lights.pmf, built.lights.pmf)
         if built.lights.envmap is not None:
-            for f in ("texels", "conditional_cdf", "cell_pdf", "to_world"):
+            for f in ("texels", "row_q", "row_alias", "col_q", "col_alias", "cell_pdf", "to_world"):
                 assert np.array_equal(getattr(hit.lights.envmap, f), getattr(built.lights.envmap, f)), f
     doc = yaml.safe_load((ROOT / "scenes" / "sky.yaml").read_text())
     shutil.copy(ROOT / "scenes" / doc["environment"]["file"], tmp_path / "env.exr")

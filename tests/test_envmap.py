@@ -69,10 +69,23 @@ def cell_solid_angles(env) -> np.ndarray:
     return (2.0 * np.pi / env.width) * (a + b)
 
 
+def alias_probabilities(q: np.ndarray, alias: np.ndarray, n: int) -> np.ndarray:
+    """(R, n) probability of each item under alias tables q, alias (R, n'), counted bucket by
+    bucket as the shader reads them (a Python loop, independent of mcpt/shading/alias.py)."""
+    q, alias = np.atleast_2d(q).astype(np.float64), np.atleast_2d(alias)
+    p = np.zeros(q.shape)
+    for r in range(q.shape[0]):
+        for b in range(q.shape[1]):
+            p[r, b] += q[r, b]
+            p[r, alias[r, b]] += 1.0 - q[r, b]
+    assert (p[:, n:] == 0).all(), "a padding bucket is reachable"
+    return p[:, :n] / q.shape[1]
+
+
 def cell_probabilities(env) -> np.ndarray:
-    """(H - 1, W) probability of each cell, from the float32 CDFs the shader searches."""
-    pr = np.diff(env.marginal_cdf.astype(np.float64), prepend=0.0)
-    pc = np.diff(env.conditional_cdf.astype(np.float64), axis=1, prepend=0.0)
+    """(H - 1, W) probability of each cell, from the float32 alias tables the shader reads."""
+    pr = alias_probabilities(env.row_q, env.row_alias, env.height - 1)[0]
+    pc = alias_probabilities(env.col_q, env.col_alias, env.width)
     return pr[:, None] * pc
 
 
@@ -168,7 +181,7 @@ def test_glsl_pdf_integrates_to_one_poles_included(gl, maps, name):
     total = float(pdf @ omega)
     assert abs(total - 1.0) < 1e-4, f"the pdf integrates to {total:.6f}"
     rows = (pdf * omega).reshape(hc, -1).sum(axis=1)
-    np.testing.assert_allclose(rows[[0, -1]], np.diff(env.marginal_cdf, prepend=0)[[0, -1]], rtol=1e-4)
+    np.testing.assert_allclose(rows[[0, -1]], cell_probabilities(env).sum(axis=1)[[0, -1]], rtol=1e-4)
     poles = (np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]) @ env.to_world.T).astype(np.float32)
     at = probe(gl, env, 2, poles)[:, 3]
     assert np.isfinite(at).all() and (at > 0).all()

@@ -135,7 +135,7 @@ def test_camera_by_name_and_unknown_name(tmp_path):
 
 def test_metal_rough_mapping(tmp_path, caplog):
     b = small_scene()
-    b.doc["materials"].append({"name": "shiny", "alphaMode": "MASK", "normalTexture": {"index": 0},
+    b.doc["materials"].append({"name": "shiny", "alphaMode": "MASK", "occlusionTexture": {"index": 0},
                                "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1],
                                                         "metallicFactor": 0, "roughnessFactor": 0.3}})
     b.node(mesh=b.mesh(QUAD, QUAD_FACES, 3), translation=[0, 0, -3])
@@ -153,7 +153,8 @@ def test_metal_rough_mapping(tmp_path, caplog):
     assert default.type == "conductor" and default.albedo == (1, 1, 1) and default.roughness == 1
     text = caplog.text
     assert "materials[3] 'shiny': approximated as diffuse" in text
-    assert re.search(r"materials\[3\] 'shiny': ignored by mcpt: normalTexture, alphaMode MASK", text)
+    assert re.search(r"materials\[3\] 'shiny': ignored by mcpt: occlusionTexture", text)
+    assert mats["shiny"].opacity_cutoff == 0.5 and mats["shiny"].opacity.color0 == (1.0, 1.0, 1.0)
     assert [m.material for m in scene.meshes] == ["grey", "lamp", "metal", "shiny", "gltf_default"]
 
 

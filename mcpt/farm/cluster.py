@@ -51,6 +51,7 @@ def job_for(p) -> dict:
     src = p.scene.source_path
     if src is None:
         raise FarmError("--workers needs a scene file (workers read it from its path)")
+    from ..scene.frame import frame_job
     from .state import scene_hash
 
     cam = p.scene.camera
@@ -60,7 +61,8 @@ def job_for(p) -> dict:
             "features_mode": p.features_mode, "clamp": p.clamp, "sampler": p.features.sampler,
             "aovs": list(p.aovs),
             "scene_hash": scene_hash(p.scene), "tiles": [list(t) for t in p.renderer.tiles],
-            "samples_per_draw": p.renderer.samples_per_draw}
+            "samples_per_draw": p.renderer.samples_per_draw,
+            **frame_job(p.scene)}  # issue #26: a frame of an animated scene (mcpt/scene/frame.py)
 
 
 def ranges(start: int, stop: int, chunk: int = CHUNK) -> list[tuple[int, int]]:

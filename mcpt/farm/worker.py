@@ -37,12 +37,13 @@ def _prepared(job: dict):
     key = job_id(job)
     if key not in _PREPARED:
         from ..prepare import prepare  # the set-up of a render, not the coordinator's loop
+        from ..scene.frame import job_scene  # issue #26: a frame of an animated scene
         from .state import scene_hash
 
         for old in list(_PREPARED.values()):  # one render at a time per worker: free the last one
             old.renderer.release()
         _PREPARED.clear()
-        p = prepare(job["scene"], overrides=tuple(job["overrides"]), bounces=job["bounces"],
+        p = prepare(job_scene(job), overrides=tuple(job["overrides"]), bounces=job["bounces"],
                     seed=job["seed"], resolution=job["resolution"], gl_backend=job["gl_backend"],
                     features_mode=job["features_mode"], clamp=job["clamp"], sampler=job["sampler"],
                     aovs=tuple(job.get("aovs", ())))

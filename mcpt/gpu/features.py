@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
+from ..scene.animation import camera_moves
 from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.roulette import RR_START
@@ -97,6 +98,8 @@ class Uses:
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
+    normal_maps: bool = False       # some material has a normal map: tangent and map buffers
+    opacity: bool = False           # some material has an opacity texture: any-hit test in traversal
     pixel_filter: int = 0           # 0 box, 1 tent, 2 Gaussian: filter importance sampling (pixel_filter.py)
     thin_lens: bool = False         # depth of field: a point on the lens per sample (2 more dims)
     orthographic: bool = False      # parallel camera rays
@@ -105,6 +108,7 @@ class Uses:
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
+    camera_moves: bool = False      # issue #26: an animated camera, its eye a uniform (camera.glsl)
 
     def everything(self) -> Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
@@ -112,7 +116,8 @@ class Uses:
             self, lights=True, single_light=False, area_lights=True, point_lights=True, spot_lights=True,
             directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
-            fresnel_complex=True, one_sided=True)
+            fresnel_complex=True, one_sided=True, normal_maps=True,
+            opacity=True)
 
     @property
     def delta(self) -> bool:
@@ -234,6 +239,8 @@ class Features:
     bvh = property(lambda self: self.compiled.bvh)
     bvh_dense = property(lambda self: self.compiled.bvh_dense)
     textures = property(lambda self: self.compiled.textures)
+    normal_maps = property(lambda self: self.compiled.normal_maps)
+    opacity = property(lambda self: self.compiled.opacity)
     smooth_normals = property(lambda self: self.compiled.smooth_normals)
     material_texels = property(lambda self: self.compiled.material_texels)
 
@@ -307,6 +314,9 @@ class Features:
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
+            "MCPT_NORMAL_MAPS": b(u.normal_maps),
+            "MCPT_OPACITY": b(u.opacity),
+            "MCPT_CAMERA_MOVES": b(u.camera_moves),
             "MCPT_FILTER": u.pixel_filter,
             "MCPT_THIN_LENS": b(u.thin_lens),
             "MCPT_ORTHO": b(u.orthographic),
@@ -330,6 +340,7 @@ class Features:
 def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: set[str],
            rough: bool = False, absorption: bool = False, textures: bool = False,
            smooth_normals: bool = False, fresnel_complex: bool = False, one_sided: bool = False,
+           normal_maps: bool = False, opacity: bool = False,
            sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False, alpha: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
@@ -354,7 +365,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         microfacet=has("conductor") and rough, dielectric=has("dielectric"),
         absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,
         smooth_normals=smooth_normals, fresnel_complex=has("conductor") and fresnel_complex,
-        one_sided=one_sided,
+        one_sided=one_sided, normal_maps=normal_maps, opacity=opacity,
         # what the render is asked for; what the driver limits; the switches
         bounces=bounces, sampler=sampler, clamp=clamp, variance=variance or alpha, aov=aov, alpha=alpha,
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
@@ -373,7 +384,8 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         lights=light_uses(world.lights), alpha=world.scene.render.transparent,
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
-        one_sided=mt.one_sided_used(ids), **{"bvh_dense": world.bvh.dense, **flags})
+        one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids),
+        opacity=mt.cut_out(ids), **{"bvh_dense": world.bvh.dense, **flags})
     f = f.replace(**camera_uses(world.scene.camera))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
@@ -384,4 +396,6 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
                       tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
+        f = f.replace(camera_moves=True)
     return f

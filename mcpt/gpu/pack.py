@@ -8,7 +8,7 @@ reads it:
     tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
     nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
     lights     mcpt/shading/lights.py    <-> glsl/lights.glsl (+ light_punctual)
-    env_texels, env_cdf  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
+    env_texels, env_alias  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
     materials  mcpt/shading/materials.py <-> glsl/materials.glsl
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
@@ -28,10 +28,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..scene.animation import eye_offset
 from ..shading.camera import camera_uniforms
 from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
+from ..shading.normal_map import pack_normal_maps, pack_tangents
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
 from ..shapes.geometry import pack_triangles
@@ -40,7 +42,8 @@ from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
-         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles")}
+         "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles"),
+         "tangents": (1, "triangles")}
 
 
 @dataclass(frozen=True)
@@ -72,8 +75,14 @@ def pack(world: World, features: Features) -> Packed:
     if features.textures and world.textures:
         buffers["uvs"] = pack_uvs(world.uvs)
         buffers["textures"] = pack_textures(world.textures)
+    if features.normal_maps or features.opacity:  # the map table always (every material is looked up)
+        buffers["normal_maps"] = pack_normal_maps(world.materials.normal_map, world.materials.opacity)
+        if features.normal_maps and world.tangents is not None:
+            buffers["tangents"] = pack_tangents(world.tangents)
     uniforms = {**camera_uniforms(cam), "u_tri_count": world.n_triangles,
                 "u_light_count": world.lights.entries}
+    if features.compiled.camera_moves:  # issue #26: the eye relative to the rebased geometry
+        uniforms["u_cam_eye"] = eye_offset(world.scene)
     if features.compiled.sun_lights:
         uniforms.update(sun_uniforms(world.lights, world.scene.where("lights")))
     if features.compiled.environment:

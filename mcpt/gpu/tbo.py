@@ -37,7 +37,9 @@ UNITS = {
     "uvs": 8,         # texture coordinates, 2 texels per triangle (mcpt/shading/texture.py)
     "textures": 9,    # albedo images: headers + sRGB texels (mcpt/shading/texture.py)
     "env_texels": 10,  # environment map radiance + cell pdfs, 1 texel each (mcpt/shading/envmap.py)
-    "env_cdf": 11,     # environment map marginal + conditional CDFs, 4 floats a texel (ditto)
+    "env_alias": 11,   # environment map alias tables (rows, then each row's cells), 2 entries a texel
+    "tangents": 12,    # normal maps: corner tangents, 1 texel per triangle (mcpt/shading/normal_map.py)
+    "normal_maps": 13,  # normal maps: texture id and scale, 1 texel per material (ditto)
 }
 
 

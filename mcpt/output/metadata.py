@@ -9,6 +9,7 @@ settings) that the header carries.
 from __future__ import annotations
 
 from .. import __version__
+from ..scene.frame import frame_metadata
 
 
 def metadata(p, result, resumed_from: int = 0) -> dict:
@@ -28,6 +29,7 @@ def metadata(p, result, resumed_from: int = 0) -> dict:
         "triangles": p.world.n_triangles, "mcpt_version": __version__,
         **result.setup,
         "resumed_from": resumed_from,
+        **frame_metadata(p.scene),  # issue #26: a frame of a sequence says which
     }
 
 

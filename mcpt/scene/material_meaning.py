@@ -27,6 +27,15 @@ from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from .materials import ImageTexture, Material
 from .model import Mesh, Scene
+from .textures import (
+    BumpMap,
+    CheckerboardTexture,
+    NormalMap,
+    build_bump_map,
+    build_normal_map,
+    build_texture,
+    texture_key,
+)
 
 log = logging.getLogger("mcpt")
 
@@ -42,6 +51,7 @@ class TextureRef:
     file: Path
     wrap: str = "repeat"
     filter: str = "bilinear"
+    linear: bool = False  # read c / 255 (an MTL map_d opacity), not sRGB-decoded
 
 
 @dataclass(frozen=True)
@@ -62,6 +72,8 @@ class MaterialRow:
     eta: RGB = (1.0, 1.0, 1.0)
     k: RGB = BLACK
     one_sided: bool = False
+    normal_map: object = None  # the YAML NormalMap, then (texture id, scale, right_handed) (_add)
+    opacity: object = None     # the YAML opacity texture and cutoff, then (texture id, cutoff) (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -117,7 +129,9 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     emission = tuple(ym.emission) if ym.emission is not None else ke
     return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
-                       one_sided=not ym.two_sided, **conductor_columns(ym))
+                       one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
+                       opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
+                       **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -139,9 +153,17 @@ class MaterialResolver:
         ym = self.yaml_material(spec)
         return bool(ym is not None and ym.smooth_normals)
 
+    def needs_tangents(self, spec: Mesh) -> bool:
+        """Whether the mesh's material has a normal map (tangents from its UVs)."""
+        ym = self.yaml_material(spec)
+        return bool(ym is not None and ym.normal_map is not None)
+
     def needs_uvs(self, spec: Mesh, file_materials) -> bool:
         """Whether some material of the mesh reads a texture (read UVs)."""
-        if self._yaml_texture(spec) is not None:
+        ym = self.yaml_material(spec)
+        if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity)):
+            return True
+        if any(m.d_map is not None for m in file_materials) and (ym is None or ym.opacity is None):
             return True
         return albedo_from_file(self.yaml_material(spec)) and any(m.kd_map is not None for m in file_materials)
 
@@ -160,15 +182,17 @@ class MaterialResolver:
                 ke = _file_emission(spec.file, mm, ke, self._file_texture(mesh_where, spec, mm, mm.ke_map))
             tex, tex_where = yaml_tex if yaml_tex is not None else (
                 kd_map, f"{mesh_where}: {spec.file}: material {mm.name!r}")
-            tex_key = str(tex.file) if tex is not None else None
+            tex_key = texture_key(tex) if tex is not None else None
+            cut = self._file_opacity(mesh_where, spec, mm, ym, ke)
             if ym is None:
                 key = ("mtl", str(spec.file), mm.name)
-                ids[j] = self._add(key, file_row(mm.name, kd, ke), tex, tex_where)
+                ids[j] = self._add(key, replace(file_row(mm.name, kd, ke), opacity=cut), tex, tex_where)
                 continue
             # One row per YAML material, unless the file's colours show through it.
-            full = not from_file and ym.emission is not None
-            key = (spec.material,) if full else (spec.material, kd, ke, tex_key)
-            ids[j] = self._add(key, scene_row(spec.material, ym, kd, ke), tex, tex_where)
+            full = not from_file and ym.emission is not None and cut is None
+            key = (spec.material,) if full else (spec.material, kd, ke, tex_key, cut and texture_key(cut[0]))
+            row = scene_row(spec.material, ym, kd, ke)
+            ids[j] = self._add(key, replace(row, opacity=cut) if cut is not None else row, tex, tex_where)
         return ids
 
     def table(self) -> MaterialTable:
@@ -187,7 +211,9 @@ class MaterialResolver:
                              texture=col("texture", np.int64), smooth=col("smooth", bool),
                              sigma_a=rgb("sigma_a"), fresnel=tuple(r.fresnel for r in rows),
                              spec=rgb("spec"), eta=rgb("eta"), k=rgb("k"),
-                             one_sided=col("one_sided", bool))
+                             one_sided=col("one_sided", bool),
+                             normal_map=tuple(r.normal_map for r in rows),
+                             opacity=tuple(r.opacity for r in rows))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -197,14 +223,27 @@ class MaterialResolver:
                 t = self._texture_id(tex, tex_where)
                 # The albedo column is informative only for a textured row: the shader reads texels.
                 row = replace(row, texture=t, albedo=tuple(self.textures[t].mean_linear()))
+            if row.normal_map is not None:
+                row = replace(row, normal_map=self._normal_map(row.name, row.normal_map))
+            if row.opacity is not None:
+                ref, cutoff = row.opacity
+                t = self._texture_id(ref, self.scene.where("materials", row.name, "opacity"))
+                row = replace(row, opacity=(t, cutoff))
             self.rows.append(row)
         return self._index[key]
 
+    def _normal_map(self, name: str, ref) -> tuple:
+        """The table's normal-map column: (texture id, scale, right-handed frame, bump)."""
+        bump = isinstance(ref, BumpMap)
+        t = self._texture_id(ref, self.scene.where("materials", name, "bump_map" if bump else "normal_map"))
+        return (t, ref.scale, not bump and ref.handedness == "right", bump)
+
     def _texture_id(self, ref, where: str) -> int:
-        key = (str(ref.file), ref.wrap, ref.filter)
+        key = texture_key(ref)
         if key not in self._texture_index:
             try:
-                texture = load_texture(ref.file, ref.wrap, ref.filter)
+                texture = (build_normal_map(ref) if isinstance(ref, NormalMap) else
+                           build_bump_map(ref) if isinstance(ref, BumpMap) else build_texture(ref))
             except TextureError as exc:  # name the scene line and key, not only the image
                 raise TextureError(f"{where}: {exc}") from None
             self._texture_index[key] = len(self.textures)
@@ -219,9 +258,20 @@ class MaterialResolver:
             return None
         if ym.albedo_texture is not None:
             return ym.albedo_texture, self.scene.where("materials", name, "albedo_texture")
-        if ym.type == "conductor" and isinstance(ym.specular_reflectance, ImageTexture):
+        if ym.type == "conductor" and isinstance(ym.specular_reflectance, (ImageTexture, CheckerboardTexture)):
             return ym.specular_reflectance, self.scene.where("materials", name, "specular_reflectance")
         return None
+
+    def _file_opacity(self, mesh_where: str, spec: Mesh, mm, ym, ke) -> tuple | None:
+        """A mesh file's ``map_d`` cut-out (stochastic opacity, read linearly) where the YAML gives
+        no opacity and the material does not emit (an emitter cannot be cut out: warned)."""
+        ref = self._file_texture(mesh_where, spec, mm, mm.d_map)
+        if ref is None or (ym is not None and ym.opacity is not None):
+            return None
+        if max(ke) > 0 or (ym is not None and ym.emission is not None and max(ym.emission) > 0):
+            log.warning("%s: material %r: map_d on an emitter is ignored (rendered opaque)", spec.file, mm.name)
+            return None
+        return (replace(ref, linear=True), None)
 
     @staticmethod
     def _file_texture(mesh_where: str, spec: Mesh, mm, tmap) -> TextureRef | None:

@@ -19,6 +19,14 @@ from pydantic_core import PydanticCustomError
 from ..shading.metals import METALS
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
+from .textures import (
+    BumpMap,
+    CheckerboardTexture,
+    NormalMap,
+    UvTransform,
+    is_checkerboard,
+    normal_map_shorthand,
+)
 
 
 class ImageTexture(StrictModel):
@@ -34,6 +42,11 @@ class ImageTexture(StrictModel):
     """What UVs outside [0, 1] read: the tiled image, the edge texels, or the mirrored image."""
     filter: Literal["bilinear", "nearest"] = "bilinear"
     """Bilinear interpolation of the four nearest texels (in linear RGB), or the nearest texel."""
+    uv: UvTransform | None = None
+    """A transform of the UVs before the lookup (mcpt/scene/textures.py)."""
+    channel: Literal["rgb", "alpha"] = "rgb"
+    """``alpha``: the image's alpha channel (linear; 1 where it has none) as a grey texture, for
+    ``opacity`` (glTF's base colour alpha)."""
 
     @field_validator("file", mode="before")
     @classmethod
@@ -46,18 +59,27 @@ def _texture_shorthand(value: Any) -> Any:
     return {"file": value} if isinstance(value, (str, Path)) else value
 
 
-def _colour_or_texture(value: Any, info: ValidationInfo) -> Any:
+def _texture(value: Any, info: ValidationInfo) -> Any:
+    """A texture: a file name or ``{file, ...}`` (an image), or ``{type: checkerboard, ...}``."""
+    if value is None or isinstance(value, (ImageTexture, CheckerboardTexture)):
+        return value
+    return _colour_or_texture(value, info, colours=False)
+
+
+def _colour_or_texture(value: Any, info: ValidationInfo, colours: bool = True) -> Any:
     """``specular_reflectance``: a number is a grey, a list an RGB colour, a string or a mapping an
-    image texture. Validated here, so that an error speaks of the one form that was written."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
+    image texture (or a checkerboard). Validated here, so that an error speaks of the one form
+    that was written."""
+    if colours and isinstance(value, (int, float)) and not isinstance(value, bool):
         value = [value] * 3
     try:
-        if isinstance(value, (list, tuple)):
+        if colours and isinstance(value, (list, tuple)):
             return TypeAdapter(Albedo).validate_python(value, strict=True)
-        return TypeAdapter(ImageTexture).validate_python(_texture_shorthand(value), context=info.context)
+        kind = CheckerboardTexture if is_checkerboard(value) else ImageTexture
+        return TypeAdapter(kind).validate_python(_texture_shorthand(value), context=info.context)
     except ValidationError as exc:
         err = exc.errors()[0]
-        where = "".join(f"item {p}: " for p in err["loc"] if isinstance(p, int))
+        where = "".join(f"item {p}: " if isinstance(p, int) else f"{p}: " for p in err["loc"])
         raise PydanticCustomError("colour_or_texture", "{msg}", {"msg": f"{where}{err['msg']}"}) from None
 
 
@@ -127,8 +149,9 @@ class Material(StrictModel):
     albedo: Albedo | None = None
     """Linear RGB reflectance in [0, 1]; None = the mesh's MTL ``Kd``, else 0.8 grey. For a
     conductor: the reflectance at normal incidence."""
-    albedo_texture: Annotated[ImageTexture | None, BeforeValidator(_texture_shorthand)] = None
-    """An image as the albedo (a file name or ``{file, wrap, filter}``); excludes ``albedo``."""
+    albedo_texture: ImageTexture | CheckerboardTexture | None = None
+    """An image as the albedo (a file name or ``{file, wrap, filter, uv}``) or a checkerboard
+    (``{type: checkerboard, color0, color1, uv}``, mcpt/scene/textures.py); excludes ``albedo``."""
     roughness: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
     """Conductor: GGX alpha in [0, 1]; 0 = mirror."""
     ior: Annotated[float, Field(ge=1.0, le=4.0)] = 1.5
@@ -145,13 +168,26 @@ class Material(StrictModel):
     """Conductor with ``fresnel: conductor``: extinction coefficient (RGB), with ``eta``."""
     metal: Literal[tuple(METALS)] | None = None  # type: ignore[valid-type]
     """Conductor: a measured metal (Au, Ag, Cu, Al, Cr) instead of ``eta`` and ``k``."""
-    specular_reflectance: Albedo | ImageTexture | None = None
+    specular_reflectance: Albedo | ImageTexture | CheckerboardTexture | None = None
     """Conductor: linear RGB factor on the lobe, in [0, 1] (a number: grey), or an image
     (``fresnel: none`` or ``conductor`` only); None = 1."""
     two_sided: bool = True
     """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
     """Emitted radiance (W sr^-1 m^-2, linear RGB, >= 0), front side only; None = MTL ``Ke``, else 0."""
+    normal_map: Annotated[NormalMap | None, BeforeValidator(normal_map_shorthand)] = None
+    """A tangent-space normal map (a file name or ``{file, scale, handedness, wrap, filter, uv}``,
+    mcpt/scene/textures.py); any type."""
+    opacity: ImageTexture | CheckerboardTexture | None = None
+    """Opacity cut-out (mcpt/shading/opacity.py): a texture whose luminance is the opacity
+    (a file name, ``{file, ...}`` or a checkerboard); rays pass where it is transparent. Not on
+    an emitter."""
+    opacity_cutoff: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    """With ``opacity``: absent where opacity < cutoff (glTF MASK); None: absent with probability
+    1 - opacity (glTF BLEND, Mitsuba's mask)."""
+    bump_map: Annotated[BumpMap | None, BeforeValidator(normal_map_shorthand)] = None
+    """A height image (a file name or ``{file, scale, encoding, wrap}``, mcpt/scene/textures.py);
+    any type; excludes ``normal_map``."""
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
@@ -160,6 +196,11 @@ class Material(StrictModel):
     @classmethod
     def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
         return None if value is None else _colour_or_texture(value, info)
+
+    @field_validator("albedo_texture", "opacity", mode="before")
+    @classmethod
+    def _albedo_texture(cls, value: Any, info: ValidationInfo) -> Any:
+        return _texture(value, info)
 
     @model_validator(mode="after")
     def _check_keys(self) -> Material:
@@ -172,6 +213,12 @@ class Material(StrictModel):
                 )
         if self.albedo is not None and self.albedo_texture is not None:
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
+        if self.opacity is not None and self.emission is not None and max(self.emission) > 0:
+            raise FieldError(("opacity",), "an emitter cannot be cut out (light sampling needs its area)")
+        if self.opacity_cutoff is not None and self.opacity is None:
+            raise FieldError(("opacity_cutoff",), "opacity_cutoff needs an opacity texture")
+        if self.normal_map is not None and self.bump_map is not None:
+            raise FieldError(("bump_map",), "give normal_map or bump_map, not both")
         if self.type == "conductor":
             self._check_fresnel()
         return self
@@ -206,7 +253,7 @@ class Material(StrictModel):
                 if key in given:
                     raise FieldError((key,), f"with fresnel: {mode} the conductor's colour is "
                                               f"specular_reflectance, not {key} (Schlick's F0)")
-        elif isinstance(self.specular_reflectance, ImageTexture):
+        elif isinstance(self.specular_reflectance, (ImageTexture, CheckerboardTexture)):
             raise FieldError(("specular_reflectance",), "with fresnel: schlick the texture is "
                                                          "albedo_texture (F0); specular_reflectance is RGB")
 

@@ -42,6 +42,7 @@ from pydantic import (
 )
 
 from ..shading.camera import orthonormal, vertical_fov
+from .animation import Animation, check_scene, origin
 from .diagnostics import FieldError, dotted, line_of, to_scene_error
 from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent, scene_path
 from .lens import Lens
@@ -226,6 +227,8 @@ class Scene(StrictModel):
     """Point, spot and directional lights (issue #20, mcpt/scene/lights.py), besides emissive meshes."""
     environment: Environment | None = None
     """The light of rays that leave the scene (issue #20); None: black."""
+    animation: Animation | None = None
+    """Keyframes of the camera and mesh transforms (issue #26, mcpt/scene/animation.py)."""
 
     _source: Path | None = PrivateAttr(default=None)
     _lines: dict = PrivateAttr(default_factory=dict)  # key path (strings) -> line, from the reader
@@ -239,7 +242,15 @@ class Scene(StrictModel):
                     ("meshes", i, "material"),
                     f"undefined material {mesh.material!r} (defined: {defined})",
                 )
+        if self.animation is not None:  # issue #26: animated meshes exist
+            check_scene(self)
         return self
+
+    @property
+    def origin(self) -> tuple:
+        """Where the geometry is rebased (mcpt/shapes/world.py): the camera position, or an
+        animation's rest pose (issue #26, mcpt/scene/animation.py origin)."""
+        return origin(self)
 
     def located(self, source: Path, lines: dict) -> Scene:
         """This scene, told the file it was read from and the line of every key (the reader's
@@ -292,6 +303,7 @@ class Scene(StrictModel):
             "meshes": self.meshes,
             "lights": self.lights,
             "environment": self.environment,
+            "animation": self.animation,
         }
         source = self._source if self._source is not None else "<scene>"
         try:

@@ -18,9 +18,11 @@ Mitsuba's ``Bitmap::pad_to`` does (l. 137), so a 1 x 1 image is a constant envir
 
 **Sampling.** The cells between four neighbouring texels ((W) x (H - 1) of them, cell (i, j)
 spanning u in [(i + 1/2), (i + 3/2)] / W and v in [j, j + 1] / (H - 1)) get a piecewise-constant
-distribution (pbrt-v4 sec. A.5 "Piecewise-constant 2D distributions": a marginal CDF over the
-rows of cells, a conditional CDF over the cells of each row) proportional to the integral of the
-luminance over each cell's solid angle, that is luminance x sin(theta) integrated exactly (the
+distribution (pbrt-v4 sec. A.5 "Piecewise-constant 2D distributions": a marginal distribution
+over the rows of cells, a conditional one over the cells of each row, each drawn from an alias
+table, mcpt/shading/alias.py: O(1), two table reads per sample where two binary searches cost
+~log2(H) + log2(W) dependent reads and loop trips under llvmpipe's 8-lane masks) proportional to
+the integral of the luminance over each cell's solid angle, that is luminance x sin(theta) integrated exactly (the
 bilinear function is linear in theta along a column: weights :func:`_row_weights`). Inside the
 chosen cell the direction is uniform in (phi, cos theta). With pdf_uv(u, v) = pdf_sa 2 pi^2
 sin(theta) (pbrt-v4 sec. 12.5, Mitsuba l. 352-356), the cos-theta-uniform warp cancels the 1 / sin
@@ -33,8 +35,9 @@ between a cell's corners), never in the radiance, which is the same bilinear fun
 estimator stays unbiased because a cell's probability is positive whenever the radiance is
 positive anywhere in it (some corner is positive, and its weight in the integral is positive),
 and env_pdf returns the density env_sample actually uses. P(cell) is computed from the float32
-CDFs the shader searches, so a cell that float32 rounding makes unreachable has pdf 0 (BSDF
-sampling then finds it alone, with MIS weight 1) instead of a pdf no sample realises.
+alias tables the shader reads (alias.realised), so a cell that float32 rounding makes unreachable
+has pdf 0 (BSDF sampling then finds it alone, with MIS weight 1) instead of a pdf no sample
+realises.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .alias import build_alias, realised
 from .envmap_file import MAX_ENV_TEXELS, EnvMapError, check_texels, read_envmap, read_envmap_image
 
 __all__ = ["MAX_ENV_TEXELS", "EnvMap", "EnvMapError", "build_envmap", "load_envmap", "read_envmap",
@@ -68,18 +72,20 @@ class EnvMap:
     * ``env_texels``: W x H RGBA32UI texels, texel ``y W + x`` = (R, G, B, p) as float bits, the
       image row by row from the top (v = 0, +Y); p = solid-angle pdf of cell (x, y) (rows
       0 .. H - 2; 0 in the last row, which starts no cell).
-    * ``env_cdf``: floats, 4 per RGBA32UI texel (float k in texel k >> 2, component k & 3):
-      k in [0, H - 1): the marginal CDF over the rows of cells (inclusive prefix sums: entry j is
-      the probability of rows 0 .. j, the last exactly 1); then at (H - 1) + j W + i the
-      conditional CDF of cell i within row j (the same form); padded with 1.0.
+    * ``env_alias``: alias-table entries (threshold q as float bits, alias index), two per
+      RGBA32UI texel (entry e in texel e >> 1, components xy if e is even, zw if odd): entries
+      [0, H') the table over the rows of cells, H' = padded_size(H - 1); then at H' + j W' + i
+      entry i of row j's table over its cells, W' = padded_size(W) (alias.py: powers of two).
 
     Uniforms (:meth:`uniforms`): ``u_env_size`` = (W, H), ``u_env_to_world`` (mat3).
     """
 
     texels: np.ndarray           # (H, W, 3) float32 radiance (scaled, padded to >= 2 x 3)
     to_world: np.ndarray         # (3, 3) float64, orthogonal
-    marginal_cdf: np.ndarray     # (H - 1,) float32, inclusive, last = 1
-    conditional_cdf: np.ndarray  # (H - 1, W) float32, inclusive, each row's last = 1
+    row_q: np.ndarray            # (H',) float32 alias thresholds over the rows of cells
+    row_alias: np.ndarray        # (H',) int64 row aliases
+    col_q: np.ndarray            # (H - 1, W') float32 alias thresholds over each row's cells
+    col_alias: np.ndarray        # (H - 1, W') int64 cell aliases
     cell_pdf: np.ndarray         # (H - 1, W) float32 solid-angle pdf (1/sr) of each cell
     radiance_integral: np.ndarray  # (3,) float64: integral of the radiance over the sphere (x sr)
 
@@ -111,9 +117,11 @@ class EnvMap:
         tex = np.zeros((h * w, 4), np.float32)
         tex[:, :3] = self.texels.reshape(-1, 3)
         tex[: (h - 1) * w, 3] = self.cell_pdf.ravel()
-        flat = np.concatenate([self.marginal_cdf, self.conditional_cdf.ravel()]).astype(np.float32)
-        flat = np.concatenate([flat, np.ones((-flat.size) % 4, np.float32)])
-        return {"env_texels": tex.view(np.uint32), "env_cdf": flat.view(np.uint32).reshape(-1, 4)}
+        q = np.concatenate([self.row_q, self.col_q.ravel()]).astype(np.float32)
+        a = np.concatenate([self.row_alias, self.col_alias.ravel()]).astype(np.uint32)
+        ent = np.zeros((q.size + q.size % 2, 2), np.uint32)
+        ent[: q.size, 0], ent[: q.size, 1] = q.view(np.uint32), a
+        return {"env_texels": tex.view(np.uint32), "env_alias": ent.reshape(-1, 4)}
 
     def uniforms(self) -> dict[str, tuple]:
         """The uniforms of glsl/envmap.glsl (mat3 column-major, as moderngl takes it)."""
@@ -155,18 +163,12 @@ class EnvMap:
 
     def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World directions (N, 3) and their pdfs (N,) for uniform numbers ``u`` (N, 2) in
-        [0, 1): u[:, 1] picks the row of cells, u[:, 0] the cell in it (float32 CDF search, as
+        [0, 1): u[:, 1] picks the row of cells, u[:, 0] the cell in it (float32 alias tables, as
         the shader), the remainders place the direction in the cell."""
-        u = np.asarray(u, np.float32).astype(np.float64)
+        u = np.asarray(u, np.float32)
         w, hc = self.width, self.height - 1
-        marg = self.marginal_cdf.astype(np.float64)
-        j = np.minimum(np.searchsorted(marg, u[:, 1], side="right"), hc - 1)
-        tv = _remap(u[:, 1], marg, j)
-        # One search over all rows at once: row j's CDF shifted by j is increasing across rows.
-        cond = self.conditional_cdf.astype(np.float64)
-        k = np.searchsorted((cond + np.arange(hc)[:, None]).ravel(), j + u[:, 0], side="right")
-        i = np.minimum(k - j * w, w - 1)
-        tu = _remap(u[:, 0], cond[j], i)
+        j, tv = _alias_pick(u[:, 1], self.row_q, self.row_alias)
+        i, tu = _alias_pick(u[:, 0], self.col_q[j], self.col_alias[j])
         phi = (i + 0.5 + tu) * (2.0 * np.pi / w)
         cos_t, sin_t = _band_point(j, hc, tv)
         local = np.stack([np.sin(phi) * sin_t, cos_t, -np.cos(phi) * sin_t], axis=1)
@@ -174,14 +176,20 @@ class EnvMap:
         return dirs, self.pdf(dirs)
 
 
-def _remap(u: np.ndarray, cdf: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """Position of u inside bucket k of an inclusive CDF (rows of ``cdf`` if 2-D), in [0, 1]."""
+def _alias_pick(u: np.ndarray, q: np.ndarray, alias: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Items and remainders in [0, 1) for float32 numbers u under alias tables (one per u if 2-D),
+    in float32 as glsl/envmap.glsl env_alias_pick: bucket b = floor(u n), fraction f = u n - b
+    (exact: n is a power of two), b itself if f < q_b, else its alias."""
+    n = q.shape[-1]
+    x = u * np.float32(n)
+    b = x.astype(np.int64)
+    f = x - b.astype(np.float32)
     rows = np.arange(len(u))
-    hi = cdf[k] if cdf.ndim == 1 else cdf[rows, k]
-    lo_k = np.maximum(k - 1, 0)
-    lo = np.where(k > 0, cdf[lo_k] if cdf.ndim == 1 else cdf[rows, lo_k], 0.0)
-    width = hi - lo
-    return np.where(width > 0, np.clip((u - lo) / np.where(width > 0, width, 1.0), 0.0, 1.0), 0.5)
+    qb = q[b] if q.ndim == 1 else q[rows, b]
+    ab = alias[b] if alias.ndim == 1 else alias[rows, b]
+    own = f < qb
+    t = np.where(own, f / np.where(own, qb, 1.0), (f - qb) / np.where(own, 1.0, 1.0 - qb))
+    return np.where(own, b, ab), np.clip(t.astype(np.float64), 0.0, 1.0)
 
 
 def _band_point(j: np.ndarray, hc: int, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -274,21 +282,15 @@ def build_envmap(image, scale=1.0, to_world=None, name: str = "environment map")
     solid = dphi * (a + b)                                            # solid angle of a cell per row
     if not weight.sum() > 0.0:  # black: sample uniformly (its radiance is 0 anyway; no 0/0)
         weight = np.broadcast_to(solid[:, None], weight.shape).copy()
-    row_cum = np.cumsum(weight, axis=1)
-    row_sum = row_cum[:, -1]
-    marg = np.cumsum(row_sum)
-    marginal = (marg / marg[-1]).astype(np.float32)
-    marginal[-1] = 1.0
-    live = row_sum > 0.0
-    uniform = np.arange(1, w + 1) / w
-    cond = np.where(live[:, None], row_cum / np.where(live, row_sum, 1.0)[:, None], uniform)
-    conditional = cond.astype(np.float32)
-    conditional[:, -1] = 1.0
-    # The probabilities the shader's float32 CDFs realise, per solid angle.
-    p_row = np.diff(marginal.astype(np.float64), prepend=0.0)
-    p_cell = np.diff(conditional.astype(np.float64), axis=1, prepend=0.0)
+    row_sum = weight.sum(axis=1)
+    live = row_sum > 0.0  # a black row: its cells uniform (never picked: the row's weight is 0)
+    row_q, row_alias = build_alias(row_sum[None])
+    col_q, col_alias = build_alias(np.where(live[:, None], weight, 1.0))
+    # The probabilities the shader's float32 tables realise, per solid angle.
+    p_row = realised(row_q, row_alias, h - 1)[0]
+    p_cell = realised(col_q, col_alias, w)
     cell_pdf = (p_row[:, None] * p_cell / solid[:, None]).astype(np.float32)
-    return EnvMap(texels, rot, marginal, conditional, cell_pdf, integral)
+    return EnvMap(texels, rot, row_q[0], row_alias[0], col_q, col_alias, cell_pdf, integral)
 
 
 def load_envmap(path, scale=1.0, to_world=None) -> EnvMap:

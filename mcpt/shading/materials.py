@@ -90,13 +90,16 @@ class MaterialTable:
     eta: np.ndarray = None      # (M, 3) conductor complex index, real part (fresnel: conductor)
     k: np.ndarray = None        # (M, 3) conductor complex index, imaginary part
     one_sided: np.ndarray = None  # (M,) bool: the back side is black
+    normal_map: tuple = None    # (M,) (texture id, scale, right_handed, bump) or None (mcpt/shading/normal_map.py)
+    opacity: tuple = None       # (M,) (texture id, cutoff or None) or None (mcpt/shading/opacity.py)
 
     def __post_init__(self):
         m = len(self.names)
         defaults = {"alpha": np.zeros(m), "ior": np.full(m, 1.5), "texture": np.full(m, -1, np.int64),
                     "smooth": np.zeros(m, bool), "sigma_a": np.zeros((m, 3)),
                     "fresnel": ("schlick",) * m, "spec": np.ones((m, 3)), "eta": np.ones((m, 3)),
-                    "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool)}
+                    "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool), "normal_map": (None,) * m,
+                    "opacity": (None,) * m}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -115,7 +118,14 @@ class MaterialTable:
         return any(self.types[i] == "dielectric" and self.sigma_a[i].max() > 0 for i in self.used(ids))
 
     def textured(self, ids) -> bool:
-        return any(self.texture[i] >= 0 for i in self.used(ids))
+        return any(self.texture[i] >= 0 or self.normal_map[i] is not None or self.opacity[i] is not None
+                   for i in self.used(ids))
+
+    def cut_out(self, ids) -> bool:
+        return any(self.opacity[i] is not None for i in self.used(ids))
+
+    def normal_mapped(self, ids) -> bool:
+        return any(self.normal_map[i] is not None for i in self.used(ids))
 
     def smooth_shaded(self, ids) -> bool:
         return any(bool(self.smooth[i]) for i in self.used(ids))

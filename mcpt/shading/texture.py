@@ -8,9 +8,14 @@ texel at 4 bytes and every decoded value exact (a float16 copy would take 8).
 All textures of a scene share one RGBA32UI buffer texture ("textures", mcpt/gpu/tbo.py):
 
     texel j < n:        header of texture j: (first data texel, width, height, flags)
-                        flags: bits 0-1 wrap (0 repeat, 1 clamp, 2 mirror), bit 2 nearest filter
+                        flags: bits 0-1 wrap (0 repeat, 1 clamp, 2 mirror), bit 2 nearest filter,
+                        bit 3 a UV transform leads the data, bit 4 procedural checkerboard,
+                        bit 5 linear (c / 255, not sRGB-decoded: normal maps)
+    [transform]:        with bit 3, 2 texels of float bits (a, b, c, d), (e, f, 0, 0): the lookup
+                        reads (a u + b v + c, d u + e v + f) (Mitsuba's ``to_uv``; uv_transform)
     data texels:        4 pixels per texel, one uint each: R | G << 8 | B << 16 | A << 24 (sRGB),
-                        rows from the BOTTOM of the image (texel row y holds v in [y, y+1) / height)
+                        rows from the BOTTOM of the image (texel row y holds v in [y, y+1) / height);
+                        a checkerboard: its two colours instead (mcpt/shading/checkerboard.py)
 
 so texture coordinates (u, v) with v up (the OBJ convention) address pixel (u W - 1/2, v H - 1/2)
 directly. A plain buffer texture rather than a sampler2D: no extra binding in the renderer and no
@@ -28,6 +33,10 @@ from ..errors import McptError
 
 WRAP = {"repeat": 0, "clamp": 1, "mirror": 2}
 FLAG_NEAREST = 4
+FLAG_TRANSFORM = 8     # 2 texels of UV transform lead the data
+FLAG_CHECKERBOARD = 16  # procedural: the data are two colours (mcpt/shading/checkerboard.py)
+FLAG_LINEAR = 32        # texels are linear values c / 255 (normal maps), not sRGB
+IDENTITY_UV = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
 
 
 class TextureError(McptError, ValueError):
@@ -40,6 +49,8 @@ class Texture:
     wrap: str
     filter: str
     srgb: np.ndarray   # (H, W, 3) uint8, sRGB-encoded, row 0 = BOTTOM of the image (v = 0)
+    uv: tuple = IDENTITY_UV  # 2x3 affine map applied to the UVs before the lookup (v up)
+    linear: bool = False     # texels are c / 255 (a normal map), not sRGB-encoded
 
     @property
     def width(self) -> int:
@@ -51,13 +62,45 @@ class Texture:
 
     @property
     def flags(self) -> int:
-        return WRAP[self.wrap] | (FLAG_NEAREST if self.filter == "nearest" else 0)
+        transformed = FLAG_TRANSFORM if not is_identity(self.uv) else 0
+        return (WRAP[self.wrap] | (FLAG_NEAREST if self.filter == "nearest" else 0) | transformed
+                | (FLAG_LINEAR if self.linear else 0))
+
+    def texels(self) -> np.ndarray:
+        """The data texels: the UV transform if any, then the pixels, 4 per texel."""
+        rgb = self.srgb.reshape(-1, 3).astype(np.uint32)
+        px = rgb[:, 0] | (rgb[:, 1] << 8) | (rgb[:, 2] << 16) | np.uint32(0xFF000000)
+        px = np.concatenate([px, np.zeros((-px.size) % 4, np.uint32)]).reshape(-1, 4)
+        return np.concatenate([uv_texels(self.uv), px]) if self.flags & FLAG_TRANSFORM else px
+
+    def decoded(self) -> np.ndarray:
+        """(H, W, 3) float64 values the shader filters: sRGB-decoded, or c / 255 if linear."""
+        return self.srgb / 255.0 if self.linear else srgb_to_linear(self.srgb)
 
     def mean_linear(self) -> np.ndarray:
-        return srgb_to_linear(self.srgb).reshape(-1, 3).mean(axis=0)
+        return self.decoded().reshape(-1, 3).mean(axis=0)
 
 
-def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear") -> Texture:
+def is_identity(uv) -> bool:
+    return np.array_equal(np.asarray(uv, np.float64), np.asarray(IDENTITY_UV))
+
+
+def uv_texels(uv) -> np.ndarray:
+    """The 2 texels of a 2x3 UV transform (float32 bits): (a, b, c, d), (e, f, 0, 0)."""
+    m = np.asarray(uv, np.float32).reshape(2, 3)
+    out = np.zeros(8, np.float32)
+    out[:6] = m.ravel()
+    return out.view(np.uint32).reshape(2, 4)
+
+
+def apply_uv(uv_map, uv: np.ndarray) -> np.ndarray:
+    """The 2x3 affine ``uv_map`` applied to (N, 2) texture coordinates (float64)."""
+    m = np.asarray(uv_map, np.float64).reshape(2, 3)
+    return np.asarray(uv, np.float64) @ m[:, :2].T + m[:, 2]
+
+
+def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=IDENTITY_UV,
+                 linear: bool = False, alpha: bool = False) -> Texture:
     import cv2  # only scenes with textures pay for the import
 
     path = Path(path)
@@ -68,7 +111,11 @@ def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear") -> 
         img = ((img.astype(np.uint32) * 255 + 32767) // 65535).astype(np.uint8)
     elif img.dtype != np.uint8:
         raise TextureError(f"{path}: {img.dtype} pixels; albedo textures must be 8- or 16-bit images")
-    if img.ndim == 2:
+    if alpha:  # the alpha channel as grey (opacity); 255 where the image has none
+        has = img.ndim == 3 and img.shape[2] in (2, 4)
+        a = img[:, :, -1] if has else np.full(img.shape[:2], 255, np.uint8)
+        img = np.repeat(a[:, :, None], 3, axis=2)
+    elif img.ndim == 2:
         img = np.repeat(img[:, :, None], 3, axis=2)
     elif img.shape[2] == 1:
         img = np.repeat(img, 3, axis=2)
@@ -78,7 +125,7 @@ def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear") -> 
         img = img[:, :, 2::-1]  # BGR(A) -> RGB
     if img.shape[0] < 1 or img.shape[1] < 1:
         raise TextureError(f"{path}: empty image")
-    return Texture(path, wrap, filter, np.ascontiguousarray(img[::-1]))
+    return Texture(path, wrap, filter, np.ascontiguousarray(img[::-1]), tuple(map(tuple, uv)), linear)
 
 
 def srgb_to_linear(c) -> np.ndarray:
@@ -87,19 +134,17 @@ def srgb_to_linear(c) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
-def pack_textures(textures: list[Texture]) -> np.ndarray:
-    """The ``textures`` buffer: headers, then each image's pixels, 4 per RGBA32UI texel."""
+def pack_textures(textures: list) -> np.ndarray:
+    """The ``textures`` buffer: headers, then each texture's data texels (``texels()``): an
+    image's pixels, 4 per RGBA32UI texel, or a checkerboard's colours."""
     n = len(textures)
     chunks, headers = [], np.zeros((max(n, 1), 4), np.uint32)
     offset = n
     for j, t in enumerate(textures):
-        rgb = t.srgb.reshape(-1, 3).astype(np.uint32)
-        px = rgb[:, 0] | (rgb[:, 1] << 8) | (rgb[:, 2] << 16) | np.uint32(0xFF000000)
-        pad = (-px.size) % 4
-        px = np.concatenate([px, np.zeros(pad, np.uint32)]).reshape(-1, 4)
+        data = t.texels()
         headers[j] = (offset, t.width, t.height, t.flags)
-        chunks.append(px)
-        offset += px.shape[0]
+        chunks.append(data)
+        offset += data.shape[0]
     return np.concatenate([headers[:max(n, 1)]] + chunks) if chunks else headers
 
 
@@ -120,10 +165,12 @@ def _reduce(u: np.ndarray, wrap: str) -> np.ndarray:
     return u - 2.0 * np.floor(u / 2.0)
 
 
-def lookup(t: Texture, uv: np.ndarray) -> np.ndarray:
+def lookup(t, uv: np.ndarray) -> np.ndarray:
     """Reference lookup (float64): the linear RGB the shader returns at texture coordinates uv."""
-    uv = np.asarray(uv, np.float64)
-    lin = srgb_to_linear(t.srgb)
+    uv = apply_uv(t.uv, uv)
+    if not isinstance(t, Texture):
+        return t.lookup(uv)
+    lin = t.decoded()
     u, v = _reduce(uv[:, 0], t.wrap), _reduce(uv[:, 1], t.wrap)
     if t.filter == "nearest":
         x = _wrap_index(np.floor(u * t.width).astype(np.int64), t.width, t.wrap)

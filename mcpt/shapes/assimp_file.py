@@ -126,7 +126,8 @@ def _materials(dicts: list[dict], mtl: obj.MtlLibrary | None) -> list[MeshMateri
             kd = kd if "kd" in keys else None
             ke = ke if "ke" in keys else None
         maps = mtl.maps.get(name, {}) if mtl is not None else {}
-        out.append(MeshMaterial(name=name, kd=kd, ke=ke, kd_map=maps.get("map_kd"), ke_map=maps.get("map_ke")))
+        out.append(MeshMaterial(name=name, kd=kd, ke=ke, kd_map=maps.get("map_kd"), ke_map=maps.get("map_ke"),
+                                d_map=maps.get("map_d")))
     return out
 
 

@@ -209,8 +209,9 @@ class ObjFile:
         return MtlLibrary.parse(self.mtl_files())
 
 
-#: MTL texture statements mcpt reads: the diffuse colour and the emitted radiance.
-MTL_MAPS = ("map_kd", "map_ke")
+#: MTL texture statements mcpt reads: the diffuse colour, the emitted radiance, the opacity
+#: ("dissolve": a grey cut-out image, mcpt/shading/opacity.py).
+MTL_MAPS = ("map_kd", "map_ke", "map_d")
 
 
 @dataclass
@@ -240,8 +241,8 @@ class MtlLibrary:
                 if key in MTL_MAPS:
                     file = map_file(rest).replace("\\", "/")
                     if file:
-                        maps.setdefault(name, {})[key] = TextureMap(mtl, key[:4] + key[4:].capitalize(),
-                                                                    mtl.parent / file)
+                        spelled = key[:4] + (key[4:].capitalize() if key != "map_d" else "d")
+                        maps.setdefault(name, {})[key] = TextureMap(mtl, spelled, mtl.parent / file)
         return cls(declared, maps)
 
 

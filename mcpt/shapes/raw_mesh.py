@@ -48,6 +48,7 @@ class MeshMaterial:
             emissiveFactor, or None when the file does not give one.
         kd_map: an image for the diffuse colour (MTL ``map_Kd``), or None.
         ke_map: an image for the emitted radiance (MTL ``map_Ke``), or None.
+        d_map: a grey image of the opacity (MTL ``map_d``: a cut-out), or None.
     """
 
     name: str
@@ -55,6 +56,7 @@ class MeshMaterial:
     ke: tuple[float, float, float] | None = None
     kd_map: TextureMap | None = None
     ke_map: TextureMap | None = None
+    d_map: TextureMap | None = None
 
 
 @dataclass

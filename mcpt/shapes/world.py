@@ -27,6 +27,7 @@ from ..shading.environment import env_power, load_environment
 from ..shading.light_punctual import punctual_lights
 from ..shading.lights import Lights, build_lights
 from ..shading.materials import MaterialTable
+from ..shading.normal_map import vertex_tangents
 from . import geometry
 from .bvh import BVH
 from .bvh_build import build_bvh
@@ -53,6 +54,7 @@ class World:
     normals: np.ndarray | None = None   # (F, 3, 3) float32 unit corner normals (smooth materials)
     uvs: np.ndarray | None = None       # (F, 3, 2) float32 corner UVs (textured materials)
     textures: list = field(default_factory=list)  # [Texture], indexed by MaterialTable.texture
+    tangents: np.ndarray | None = None  # (F, 3, 4) corner tangents + handedness (normal-mapped meshes)
 
     @property
     def n_triangles(self) -> int:
@@ -77,6 +79,7 @@ class MeshPart:
     uvs: np.ndarray
     dropped_degenerate: int
     dropped_duplicate: int
+    tangents: np.ndarray | None = None  # (F, 3, 4) corner tangents + handedness (normal maps)
 
 
 def load_world(scene: Scene) -> World:
@@ -104,7 +107,8 @@ def load_world(scene: Scene) -> World:
              "dropped_duplicate": int(sum(p.dropped_duplicate for p in parts) + repeated),
              "materials": len(table.names), "emissive_triangles": lights.count,
              "textures": len(resolver.textures), "load_seconds": t_load, "bvh": bvh.stats()}
-    return World(scene, tris, tri_mat, table, lights, bvh, stats, normals, uvs, resolver.textures)
+    return World(scene, tris, tri_mat, table, lights, bvh, stats, normals, uvs, resolver.textures,
+                 _corner_tangents(parts, keep, bvh.order))
 
 
 def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
@@ -112,7 +116,7 @@ def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
     table; positions relative to the camera like the triangles."""
     lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
     radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
-    origin = np.asarray(scene.camera.position, np.float64)
+    origin = np.asarray(scene.origin, np.float64)
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
     return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
                         env_power(scene.environment, envmap, radius), envmap)
@@ -134,7 +138,10 @@ def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:
     if need_uvs and mesh.uvs is None:
         log.warning("%s: material %r has an albedo texture but the mesh has no UVs; "
                     "it reads texture coordinate (0, 0)", spec.file, spec.material)
-    return _rebased(mesh, ids, np.asarray(scene.camera.position, np.float64))
+    part = _rebased(mesh, ids, np.asarray(scene.origin, np.float64))
+    if resolver.needs_tangents(spec) and mesh.uvs is not None:
+        part.tangents = vertex_tangents(mesh.vertices, mesh.faces, mesh.uvs, mesh.normals)[mesh.faces]
+    return part
 
 
 def _rebased(mesh: Mesh, ids: np.ndarray, origin: np.ndarray) -> MeshPart:
@@ -160,6 +167,14 @@ def _drop_repeated(tris32: np.ndarray, n_meshes: int):
         # surface for BSDF hits: direct light counted double.
         log.info("dropped %d triangles repeated across mesh files", repeated)
     return tris32[keep], keep, repeated
+
+
+def _corner_tangents(parts: list[MeshPart], keep, order: np.ndarray) -> np.ndarray | None:
+    """Corner tangents of the kept triangles in BVH order (zeros: none), if any mesh has them."""
+    if all(p.tangents is None for p in parts):
+        return None
+    return np.concatenate([p.tangents if p.tangents is not None else np.zeros((len(p.tris), 3, 4))
+                           for p in parts]).astype(np.float32)[keep][order]
 
 
 def _per_triangle(parts: list[MeshPart], textured: bool, keep, order: np.ndarray):

@@ -11,8 +11,11 @@ What maps (README "glTF 2.0 scenes" has the full table):
 * ``baseColorTexture`` (sRGB) -> ``albedo_texture`` (with the factor ignored, warned, if it is not
   white); ``emissiveFactor`` x ``KHR_materials_emissive_strength`` -> ``emission`` (an
   ``emissiveTexture`` scales it by the image's mean, warned); ``doubleSided`` -> ``two_sided``.
-* ignored with a warning: metallicRoughnessTexture, normalTexture, occlusionTexture, alphaMode
-  MASK / BLEND and base-colour alpha (rendered opaque), other material extensions.
+* ``normalTexture`` (linear, tangent space, ``scale``) -> ``normal_map`` with MikkTSpace-style
+  tangents from the UVs (mcpt/shading/normal_map.py); a TANGENT attribute is not read.
+* ``alphaMode`` MASK (``alphaCutoff``) / BLEND -> ``opacity`` (+ ``opacity_cutoff`` for MASK):
+  the base colour texture's alpha channel, else the factor's alpha; not on an emitter (warned).
+* ignored with a warning: metallicRoughnessTexture, occlusionTexture, other material extensions.
 
 A primitive without a material gets the spec's default material (section 3.9.6): white,
 metallic 1, roughness 1, i.e. a rough white conductor.
@@ -26,12 +29,13 @@ import numpy as np
 
 from .container import Gltf, obj
 from .images import texture
+from .texture_transform import uv_of_khr_transform
 
 log = logging.getLogger("mcpt")
 
 #: Material extensions mapped here; any other is ignored with a warning.
 KNOWN_EXTENSIONS = ("KHR_materials_emissive_strength",)
-IGNORED_TEXTURES = ("metallicRoughnessTexture", "normalTexture", "occlusionTexture")
+IGNORED_TEXTURES = ("metallicRoughnessTexture", "occlusionTexture")
 
 
 def _factor(g: Gltf, obj: dict, key: str, default, where: str, n: int | None = None):
@@ -48,9 +52,37 @@ def _texture_info(g: Gltf, info, where: str, key: str) -> dict:
         raise g.error(where, f"{key} must be an object")
     if info.get("texCoord", 0) != 0:
         raise g.error(where, f"{key}.texCoord {info.get('texCoord')!r}: mcpt reads TEXCOORD_0 only")
-    if "KHR_texture_transform" in obj(info.get("extensions")):
-        log.warning("%s: %s: %s: KHR_texture_transform is ignored", g.path, where, key)
-    return texture(g, info, f"{where}.{key}")
+    out = texture(g, info, f"{where}.{key}")
+    ext = obj(info.get("extensions")).get("KHR_texture_transform")
+    if ext is not None:
+        out.update(uv_of_khr_transform(g, ext, f"{where}: {key}.extensions.KHR_texture_transform"))
+    return out
+
+
+def _opacity(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> dict:
+    """alphaMode MASK (alphaCutoff, default 0.5) / BLEND (stochastic) -> ``opacity``: the base
+    colour texture's alpha, else the factor's alpha (a one-colour checkerboard)."""
+    mode = m.get("alphaMode", "OPAQUE")
+    if mode not in ("MASK", "BLEND"):
+        return {}
+    if "baseColorTexture" in pbr:
+        opacity = {**_texture_info(g, pbr["baseColorTexture"], where, "baseColorTexture"), "channel": "alpha"}
+        if base[3] != 1.0:
+            log.warning("%s: %s: baseColorFactor alpha %.3g times the texture's: mcpt uses the texture's "
+                        "alpha alone", g.path, where, base[3])
+    else:
+        opacity = {"type": "checkerboard", "color0": [float(base[3])] * 3, "color1": [float(base[3])] * 3}
+    out = {"opacity": opacity}
+    if mode == "MASK":
+        out["opacity_cutoff"] = min(_factor(g, m, "alphaCutoff", 0.5, where), 1.0)
+    return out
+
+
+def _normal_map(g: Gltf, info, where: str) -> dict:
+    """normalTexture -> mcpt's ``normal_map`` (glTF's tangent frame: MikkTSpace, ``uv``)."""
+    out = _texture_info(g, info, where, "normalTexture")
+    out["scale"] = _factor(g, info, "scale", 1.0, f"{where}: normalTexture")
+    return out
 
 
 def _emission(g: Gltf, m: dict, where: str) -> list[float] | None:
@@ -74,10 +106,8 @@ def _warn_ignored(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> 
     ignored = [k for k in IGNORED_TEXTURES if k in m or k in pbr]
     ignored += [f"extension {e}" for e in obj(m.get("extensions")) if e not in KNOWN_EXTENSIONS]
     mode = m.get("alphaMode", "OPAQUE")
-    if mode != "OPAQUE":
+    if mode not in ("OPAQUE", "MASK", "BLEND"):
         ignored.append(f"alphaMode {mode} (rendered opaque)")
-    elif base[3] < 1.0:
-        ignored.append(f"base colour alpha {base[3]:.3g} (rendered opaque)")
     if ignored:
         log.warning("%s: %s: ignored by mcpt: %s", g.path, where, ", ".join(ignored))
 
@@ -120,8 +150,16 @@ def material(g: Gltf, index: int | None) -> dict:
     if 0.0 < metallic < 1.0:
         log.warning("%s: %s: metallicFactor %.3g rounded to %s", g.path, where, metallic,
                     "metal (conductor)" if metallic >= 0.5 else "non-metal (diffuse)")
+    if "normalTexture" in m:
+        out["normal_map"] = _normal_map(g, m["normalTexture"], where)
     emission = _emission(g, m, where)
     if emission is not None:
         out["emission"] = emission
+    cut = _opacity(g, m, pbr, base, where)
+    if cut and emission is not None and max(emission) > 0:
+        log.warning("%s: %s: alphaMode %s on an emitter is ignored (rendered opaque: light sampling "
+                    "needs its area)", g.path, where, m.get("alphaMode"))
+    else:
+        out.update(cut)
     _warn_ignored(g, m, pbr, base, where)
     return out

@@ -28,6 +28,7 @@ from ..mapped import validated
 from ..model import Scene
 from . import camera as cameras
 from . import geometry, nodes
+from .animation import animation_data
 from .container import Gltf, GltfError, open_gltf
 from .lights import lights
 from .materials import material, material_name
@@ -65,8 +66,9 @@ def _check_extensions(g: Gltf) -> None:
             raise g.error("extensionsRequired", f"{ext} is not supported by mcpt")
 
 
-def _meshes(g: Gltf, placed, prims) -> tuple[list[dict], dict[str, dict]]:
-    """The scene's mesh entries and materials for the placed nodes."""
+def _meshes(g: Gltf, placed, prims, owners: list | None = None) -> tuple[list[dict], dict[str, dict]]:
+    """The scene's mesh entries and materials for the placed nodes (``owners``: filled with each
+    entry's node, for the animation, issue #26)."""
     meshes: list[dict] = []
     materials: dict[str, dict] = {}
     names: dict = {}          # (glTF material index or None, has normals) -> scene material name
@@ -92,6 +94,8 @@ def _meshes(g: Gltf, placed, prims) -> tuple[list[dict], dict[str, dict]]:
                 materials[names[key]] = material(g, key[0]) | ({"smooth_normals": True} if key[1] else {})
             meshes.append({"file": str(g.path), "shape_index": number, "material": names[key],
                            "transform": {"matrix": world.tolist()}})
+            if owners is not None:
+                owners.append(ni)
     return meshes, materials
 
 
@@ -110,7 +114,8 @@ def scene_data(path: str | Path, options: dict[str, str] | None = None) -> dict:
     placed = nodes.instances(g)
     node, world = cameras.choose(g, placed, options.get("camera"))
     cam = cameras.camera(g, node, world)
-    meshes, materials = _meshes(g, placed, geometry.primitives(g))
+    owners: list = []
+    meshes, materials = _meshes(g, placed, geometry.primitives(g), owners)
     if not meshes:
         raise g.error("nodes", "no node of the scene places a mesh: nothing to render")
     for i in range(len(g.items("buffers"))):
@@ -118,6 +123,8 @@ def scene_data(path: str | Path, options: dict[str, str] | None = None) -> dict:
     data = {"name": Path(path).stem, "camera": cam, "render": {}, "materials": materials, "meshes": meshes}
     if found := lights(g, placed):  # issue #20: KHR_lights_punctual (gltf/lights.py)
         data["lights"] = found
+    if anim := animation_data(g, placed, owners):  # issue #26: node TRS channels (gltf/animation.py)
+        data["animation"] = anim
     return data
 
 

@@ -4,7 +4,8 @@ Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX; Beckmann approxi
 the same alpha with a warning), ``dielectric``, ``plastic``, ``twosided`` (one BSDF for both
 sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_sided: false``;
 ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
-(diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` texture.
+(diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` or ``checkerboard`` texture
+(mcpt/scene/mitsuba/textures.py).
 """
 
 from __future__ import annotations
@@ -13,13 +14,14 @@ import logging
 
 from ...shading.materials import fdr_internal
 from ...shading.metals import METALS
-from ..fields import TEXTURE_SUFFIXES
 from . import values as V
-from .xmltree import Node, deref, resolve_file
+from .textures import bump_map, mask, normal_map, texture
+from .xmltree import Node, deref
 
 log = logging.getLogger("mcpt")
 
-SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided")
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided",
+             "normalmap", "bumpmap", "mask")  # the last three: mcpt/scene/mitsuba/textures.py
 
 #: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
 IOR = {"vacuum": 1.0, "helium": 1.00004, "hydrogen": 1.00013, "air": 1.000277,
@@ -53,36 +55,6 @@ def _relative_ior(props: dict[str, Node], node: Node, int_default: str) -> float
                     "ratio int_ior/ext_ior = %.4g (exact for this interface alone)",
                     node.file, node.line, node.label, ext_ior, int_ior / ext_ior)
     return int_ior / ext_ior
-
-
-def texture(node: Node) -> dict:
-    """A ``bitmap`` texture as mcpt's ``albedo_texture``: 8-bit images are sRGB-decoded, which is
-    what Mitsuba does with ``raw=false`` (the default) for PNG/JPEG; ``raw=true`` is refused."""
-    if node.get("type") != "bitmap":
-        raise node.error("not supported by mcpt (supported textures: bitmap)")
-    props = V.properties(node)
-    if "filename" not in props:
-        raise node.error("a bitmap needs a filename (in-memory bitmaps cannot come from a file)")
-    path = resolve_file(node, V.as_string(props["filename"]))
-    if path.suffix.lower() not in TEXTURE_SUFFIXES:
-        raise props["filename"].error(f"{path.suffix or '(none)'} images are not supported by mcpt "
-                                      f"(8-bit formats: {', '.join(TEXTURE_SUFFIXES)})")
-    if "raw" in props and V.as_bool(props["raw"]):
-        raise props["raw"].error("raw=true is not supported by mcpt (8-bit images are read as sRGB)")
-    if "to_uv" in props:
-        raise props["to_uv"].error("texture coordinate transforms are not supported by mcpt")
-    out: dict = {"file": str(path)}
-    if "wrap_mode" in props:
-        wrap = V.as_string(props["wrap_mode"])
-        if wrap not in ("repeat", "mirror", "clamp"):
-            raise props["wrap_mode"].error(f"wrap_mode {wrap!r}: expected repeat, mirror or clamp")
-        out["wrap"] = wrap
-    if "filter_type" in props:
-        kind = V.as_string(props["filter_type"])
-        if kind not in ("bilinear", "nearest"):
-            raise props["filter_type"].error(f"filter_type {kind!r}: expected bilinear or nearest")
-        out["filter"] = kind
-    return out
 
 
 def _albedo(bsdf: Node, props, key, default, ids) -> dict:
@@ -186,6 +158,12 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
             raise bsdf.error("a twosided with a different BSDF per side is not supported by mcpt "
                              "(give one nested BSDF)")
         return material(inner[0], ids, two_sided=True)
+    if kind == "normalmap":  # a wrapper: mcpt/scene/mitsuba/textures.py
+        return normal_map(bsdf, ids, lambda node: material(node, ids, two_sided))
+    if kind == "mask":
+        return mask(bsdf, ids, lambda node: material(node, ids, two_sided))
+    if kind == "bumpmap":
+        return bump_map(bsdf, ids, lambda node: material(node, ids, two_sided))
     if kind == "diffuse":
         out = {"type": "diffuse", **_albedo(bsdf, props, "reflectance", 0.5, ids)}
     elif kind in ("conductor", "roughconductor"):

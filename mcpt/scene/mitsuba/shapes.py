@@ -159,8 +159,9 @@ def relative_paths(data: dict, folder: Path) -> dict:
         if "file" in mesh:
             mesh["file"] = rel(mesh["file"])
     for mat in data.get("materials", {}).values():
-        if "albedo_texture" in mat:
-            mat["albedo_texture"]["file"] = rel(mat["albedo_texture"]["file"])
+        for key in ("albedo_texture", "normal_map", "bump_map", "opacity"):
+            if "file" in mat.get(key, {}):
+                mat[key]["file"] = rel(mat[key]["file"])
     if "file" in (data.get("environment") or {}):  # issue #20: an envmap's image
         data["environment"]["file"] = rel(data["environment"]["file"])
     return data
