@@ -24,16 +24,17 @@ def scene(path: Path, body: str, camera: bool = True) -> Path:
 
 
 def test_path_folder_finds_meshes_and_includes_as_mitsuba_does(tmp_path):
-    # The layout of Mitsuba's documentation scenes: docs/scenes/X.xml says <path value="../../common"/>
-    # and includes include/Y.xml, whose meshes/Z are in common/meshes/.
-    (tmp_path / "common" / "meshes").mkdir(parents=True)
-    (tmp_path / "common" / "meshes" / "quad.obj").write_text(SQUARE)
-    scene(tmp_path / "docs" / "scenes" / "include" / "part.xml",
+    # The layout of Mitsuba's documentation scenes: docs/scenes/X.xml names a shared folder with
+    # <path value=...> and includes include/Y.xml, whose meshes/Z are in that shared folder.
+    lib = tmp_path / "scenes" / "lib" / "common"
+    (lib / "meshes").mkdir(parents=True)
+    (lib / "meshes" / "quad.obj").write_text(SQUARE)
+    scene(tmp_path / "scenes" / "include" / "part.xml",
           '<shape type="obj"><string name="filename" value="meshes/quad.obj"/></shape>', camera=False)
-    top = scene(tmp_path / "docs" / "scenes" / "top.xml",
-                '<path value="../../common"/>\n<include filename="include/part.xml"/>')
+    top = scene(tmp_path / "scenes" / "top.xml",
+                '<path value="lib/common"/>\n<include filename="include/part.xml"/>')
     data, _ = scene_data(top)
-    assert [Path(m["file"]) for m in data["meshes"]] == [(tmp_path / "common/meshes/quad.obj").resolve()]
+    assert [Path(m["file"]) for m in data["meshes"]] == [(lib / "meshes" / "quad.obj").resolve()]
 
 
 def test_a_path_folder_is_searched_before_the_scene_folder(tmp_path):
