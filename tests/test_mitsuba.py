@@ -283,8 +283,8 @@ REFUSALS = [
      r'<integrator type="aov">: not supported by mcpt: its image differs'),
     ('<shape type="sphere"><ref id="nothing"/></shape>', r"<ref id=\"nothing\">: unknown reference id 'nothing'"),
     ('<shape type="sphere"><transform name="to_world"><scale x="2"/></transform></shape>', r"non-uniform scale"),
-    ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Hg"/></bsdf></shape>',
-     r"not among mcpt's measured metals"),
+    ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Xx"/></bsdf></shape>',
+     r"not among Mitsuba 3's presets"),
     ('<shape type="sphere"><float name="radius" value="$r"/></shape>', r"undefined parameter \$r"),
     ('<shape type="sphere"><bsdf type="dielectric"><rgb name="specular_transmittance" value="0.5"/></bsdf>'
      '</shape>', r"specular_transmittance is not supported"),

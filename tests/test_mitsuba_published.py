@@ -135,3 +135,19 @@ def test_specular_reflectance_spelled_out_as_the_default_is_accepted(tmp_path, v
     else:
         with pytest.raises(SceneError, match="specular_reflectance is not supported"):
             scene_data(top)
+
+
+def test_conductor_presets_are_mitsubas_rgb_values(tmp_path):
+    # Mitsuba 3.9.1 scalar_rgb, mi.traverse(load_dict({"type": "conductor", "material": "Au"})):
+    # eta (0.143036, 0.375307, 1.44205), k (3.983, 2.38556, 1.60336); a-C is a preset there too.
+    top = scene(tmp_path / "top.xml",
+                '<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>\n'
+                '<shape type="sphere"><bsdf type="conductor"><string name="material" value="a-C"/></bsdf></shape>')
+    data, _ = scene_data(top)
+    gold, carbon = (data["materials"][m["material"]] for m in data["meshes"])
+    assert gold["fresnel"] == "conductor" and carbon["fresnel"] == "conductor"
+    np.testing.assert_allclose(gold["eta"], [0.143036, 0.375307, 1.44205])
+    np.testing.assert_allclose(gold["k"], [3.983, 2.38556, 1.60336])
+    with pytest.raises(SceneError, match="'unobtainium' is not among Mitsuba 3's presets"):
+        scene_data(scene(tmp_path / "bad.xml", '<shape type="sphere"><bsdf type="conductor">'
+                         '<string name="material" value="unobtainium"/></bsdf></shape>'))

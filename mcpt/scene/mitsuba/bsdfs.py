@@ -13,8 +13,8 @@ from __future__ import annotations
 import logging
 
 from ...shading.materials import fdr_internal
-from ...shading.metals import METALS
 from . import values as V
+from .conductors import MITSUBA_CONDUCTORS
 from .textures import bump_map, mask, normal_map, texture
 from .xmltree import Node, deref
 
@@ -99,11 +99,13 @@ def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
         name = V.as_string(props["material"]) if "material" in props else "none"
         if name == "none":
             out["fresnel"] = "none"
-        elif name in METALS:
-            out["metal"] = name
+        elif name in MITSUBA_CONDUCTORS:
+            # Mitsuba's own RGB reduction of the preset (conductors.py), not mcpt's metal: presets.
+            eta, k = MITSUBA_CONDUCTORS[name]
+            out.update(eta=list(eta), k=list(k), fresnel="conductor")
         else:
-            raise props["material"].error(f"conductor material {name!r} is not among mcpt's measured "
-                                          f"metals (none, {', '.join(METALS)}); give eta and k as <rgb>")
+            raise props["material"].error(f"conductor material {name!r} is not among Mitsuba 3's "
+                                          f"presets (none, {', '.join(MITSUBA_CONDUCTORS)})")
     if "specular_reflectance" in props:
         out["specular_reflectance"] = list(V.as_color(props["specular_reflectance"]))
     return out
