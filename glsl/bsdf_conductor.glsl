@@ -1,4 +1,5 @@
-// Conductor: a perfect mirror for alpha = 0, else a GGX microfacet BRDF (bsdf_ggx.glsl)
+// Conductor: a perfect mirror for alpha = 0, else a microfacet BRDF (bsdf_microfacet.glsl: GGX
+// or Beckmann, height-correlated or separable masking)
 //   f = F(wi.h) D(h) G2(wo, wi) / (4 cos_o cos_i)
 // with the material's Fresnel mode (flags bits 1-2, mcpt/shading/materials.py), each times the
 // lobe scale S (specular_reflectance):
@@ -27,10 +28,10 @@ vec3 conductor_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
         vec3 o = to_local(wo, t, b, n), i = to_local(wi, t, b, n);
         if (o.z <= 0.0 || i.z <= 0.0) return vec3(0.0);
         vec3 h = normalize(o + i);
-        float lo = ggx_lambda(o, m.alpha), li = ggx_lambda(i, m.alpha);
-        float d = ggx_D(h, m.alpha);
-        pdf = d / (4.0 * o.z * (1.0 + lo));
-        return conductor_fresnel(m, dot(i, h)) * (d / (4.0 * o.z * (1.0 + lo + li)));
+        float lo = mf_lambda(o, m.alpha, m.flags), li = mf_lambda(i, m.alpha, m.flags);
+        float d = mf_D(h, m.alpha, m.flags);
+        pdf = d * mf_pdf_h_over_D(o, h, lo, m.flags) / (4.0 * dot(o, h));
+        return conductor_fresnel(m, dot(i, h)) * (d * mf_G2(lo, li, m.flags) / (4.0 * o.z));
     }
 #endif
     return vec3(0.0);  // a mirror has only a delta lobe
@@ -42,13 +43,16 @@ bool conductor_sample(Material m, vec3 n, vec3 wo, vec2 u, inout BsdfSample s) {
         vec3 t, b; local_frame(n, t, b);
         vec3 o = to_local(wo, t, b, n);
         if (o.z <= 0.0) return false;
-        vec3 h = ggx_sample_vndf(o, m.alpha, u);
+        vec3 h = mf_sample(o, m.alpha, m.flags, u);
+        float oh = dot(o, h);
         vec3 i = reflect(-o, h);
-        if (i.z <= 0.0) return false;  // reflected below the surface: masked, no energy
-        float lo = ggx_lambda(o, m.alpha), li = ggx_lambda(i, m.alpha);
+        if (i.z <= 0.0 || oh <= 0.0) return false;  // below the surface, or a back-facing facet
+        float lo = mf_lambda(o, m.alpha, m.flags), li = mf_lambda(i, m.alpha, m.flags);
+        float q = mf_pdf_h_over_D(o, h, lo, m.flags);
         s.wi = normalize(i.x * t + i.y * b + i.z * n);
-        s.weight = conductor_fresnel(m, dot(o, h)) * ((1.0 + lo) / (1.0 + lo + li));  // F G2 / G1
-        s.pdf = ggx_pdf_reflect(o, h, m.alpha, lo);
+        // f |cos| / pdf = F D G2 / (4 wo.z) / (D q / (4 wo.h)): for GGX's visible normals F G2 / G1.
+        s.weight = conductor_fresnel(m, oh) * (mf_G2(lo, li, m.flags) * oh / (o.z * q));
+        s.pdf = mf_D(h, m.alpha, m.flags) * q / (4.0 * oh);
         return true;
     }
 #endif

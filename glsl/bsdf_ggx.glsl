@@ -27,11 +27,5 @@ vec3 ggx_sample_vndf(vec3 wo, float a, vec2 u) {
     return normalize(vec3(a * h.xy, max(h.z, 0.0)));     // unstretched
 }
 
-// Density of the reflected direction when h is drawn by ggx_sample_vndf:
-// D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z), with G1 = 1 / (1 + Lambda(wo)).
-float ggx_pdf_reflect(vec3 wo, vec3 h, float a, float lambda_o) {
-    return ggx_D(h, a) / (4.0 * wo.z * (1.0 + lambda_o));
-}
-
 void local_frame(vec3 n, out vec3 t, out vec3 b) { onb(n, t, b); }
 vec3 to_local(vec3 w, vec3 t, vec3 b, vec3 n) { return vec3(dot(w, t), dot(w, b), dot(w, n)); }

@@ -1,10 +1,11 @@
-// Plastic: a Lambertian base of albedo A under a smooth dielectric coat of index eta (the
-// "smooth plastic" of Mitsuba, with its nonlinear internal scattering):
+// Plastic: a Lambertian base of albedo A under a smooth dielectric coat of index eta (Mitsuba 3's
+// plastic, src/bsdfs/plastic.cpp, either `nonlinear` mode):
 //   specular: a mirror reflection with the coat's Fresnel reflectance Fo = F(cos_o);
-//   diffuse:  f = A / (pi (1 - A Fdr_int)) (1 - Fo)(1 - Fi) / eta^2,
+//   diffuse:  f = A / (pi (1 - K)) (1 - Fo)(1 - Fi) / eta^2,
 // where light crossing the coat is scattered by the base, partly reflected back by the coat
-// from inside (Fdr_int, mcpt/shading/materials.py) and scattered again: the geometric series gives the
-// denominator. For a white base the two lobes reflect exactly all light (1 - Fdr_int =
+// from inside (Fdr_int, mcpt/shading/materials.py) and scattered again: the geometric series gives
+// K = A Fdr_int (flags bit 6, nonlinear: mcpt's default) or, Mitsuba's default, K = Fdr_int. For a
+// white base the two lobes reflect exactly all light in both modes (1 - Fdr_int =
 // (1 - Fdr_ext) / eta^2). The lobe is picked by u.x with probability Ps for the specular one.
 
 // Probability of picking the specular lobe: its share of the expected reflectance.
@@ -14,7 +15,8 @@ float plastic_spec_prob(Material m, float Fo) {
 }
 
 vec3 plastic_diffuse(Material m, float Fo, float Fi) {
-    return m.albedo * (INV_PI * (1.0 - Fo) * (1.0 - Fi) / (m.ior * m.ior)) / (1.0 - m.albedo * m.fdr_int);
+    vec3 k = (m.flags & MAT_FLAG_NONLINEAR) != 0u ? m.albedo * m.fdr_int : vec3(m.fdr_int);
+    return m.albedo * (INV_PI * (1.0 - Fo) * (1.0 - Fi) / (m.ior * m.ior)) / (1.0 - k);
 }
 
 vec3 plastic_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {

@@ -2,7 +2,8 @@
 // MCPT_MAT_TEXELS RGBA32UI texels per material:
 //   0 (albedo.rgb, type)  1 (emission.rgb, light_pdf_area)              -- always
 //   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS >= 4
-//   4 (k.rgb, 0)                       -- when MCPT_MAT_TEXELS == 5 (a complex-Fresnel conductor)
+//   4 (k.rgb, 0)                       -- with a complex-Fresnel conductor (MCPT_FRESNEL_COMPLEX)
+//   the last 16: a rough plastic's transmittance table (bsdf_roughplastic.glsl) -- MCPT_MAT_ROUGH_PLASTIC
 // light_pdf_area = luminance(Le) / total emitted power: the density, per unit area, with which
 // next-event estimation picks a point on a triangle of this material (needed for MIS).
 //
@@ -20,14 +21,18 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 #define MAT_CONDUCTOR 1
 #define MAT_DIELECTRIC 2
 #define MAT_PLASTIC 3
+// 4: MAT_ROUGH_DIELECTRIC (bsdf_roughdielectric.glsl), 5: MAT_THIN_DIELECTRIC (bsdf_thindielectric.glsl),
+// 6: MAT_ROUGH_PLASTIC (bsdf_roughplastic.glsl, whose table is the last 16 texels of its block)
 #define MAT_FLAG_SMOOTH 1u
 #define MAT_FLAG_ONE_SIDED 8u   // bits 1-2: the conductor's Fresnel mode (bsdf_conductor.glsl)
+// bits 4-5: the microfacet distribution and masking term (bsdf_microfacet.glsl)
+#define MAT_FLAG_NONLINEAR 64u  // plastics: Mitsuba's nonlinear (bsdf_plastic.glsl, bsdf_roughplastic.glsl)
 
 struct Material {
     vec3 albedo; int type; vec3 emission; float light_pdf_area;
 #if MCPT_MAT_TEXELS > 2
-    float alpha;    // GGX alpha (conductor; 0: mirror)
-    float ior;      // index of refraction (dielectric, plastic); the outside is air
+    float alpha;    // microfacet alpha (conductor, 0: mirror; rough dielectric)
+    float ior;      // index of refraction (dielectrics, plastic); the outside is air
     int texture;    // albedo texture id, -1: none
     uint flags;     // MAT_FLAG_SMOOTH: shade with interpolated vertex normals
     vec3 sigma_a;   // absorption per unit length inside a dielectric
@@ -35,8 +40,11 @@ struct Material {
     // Conductor, in sigma_a's texel: Schlick's lobe scale, or eta (the complex index's real part).
     vec3 scale; vec3 eta;
 #endif
-#if MCPT_MAT_TEXELS > 4
+#if MCPT_FRESNEL_COMPLEX
     vec3 k;         // conductor, complex Fresnel: the extinction coefficient
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    int base;       // the material's first texel (rough plastic reads its table after it)
 #endif
 };
 
@@ -55,8 +63,11 @@ Material material(int id) {
     m.sigma_a = uintBitsToFloat(d.xyz); m.fdr_int = uintBitsToFloat(d.w);
     m.scale = m.sigma_a; m.eta = m.sigma_a;
 #endif
-#if MCPT_MAT_TEXELS > 4
+#if MCPT_FRESNEL_COMPLEX
     m.k = uintBitsToFloat(texelFetch(u_materials, base + 4).xyz);
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    m.base = base;
 #endif
     return m;
 }
@@ -74,13 +85,17 @@ struct BsdfSample {
 };
 
 // Dispatch: one #include per BSDF file.
-#if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC
+#if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC || MCPT_MAT_ROUGH_PLASTIC
 #include "bsdf_diffuse.glsl"
 #endif
 #if MCPT_MICROFACET
 #include "bsdf_ggx.glsl"
+#if MCPT_BECKMANN
+#include "bsdf_beckmann.glsl"
 #endif
-#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR
+#include "bsdf_microfacet.glsl"
+#endif
+#if MCPT_MAT_DIELECTRIC || MCPT_MAT_PLASTIC || MCPT_MAT_CONDUCTOR || MCPT_MAT_ROUGH_DIELECTRIC || MCPT_MAT_THIN_DIELECTRIC || MCPT_MAT_ROUGH_PLASTIC
 #include "bsdf_fresnel.glsl"
 #endif
 #if MCPT_MAT_CONDUCTOR
@@ -92,6 +107,24 @@ struct BsdfSample {
 #if MCPT_MAT_PLASTIC
 #include "bsdf_plastic.glsl"
 #endif
+#if MCPT_MAT_ROUGH_DIELECTRIC
+#include "bsdf_roughdielectric.glsl"
+#endif
+#if MCPT_MAT_THIN_DIELECTRIC
+#include "bsdf_thindielectric.glsl"
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+#include "bsdf_roughplastic.glsl"
+#endif
+
+// The material as seen from the side the path arrives on (`front`: the outside). A rough
+// dielectric's eval needs the relative index across the surface, which bsdf_eval has no side
+// for: its ior becomes n (other side) / n (this side) here, once per hit.
+void material_side(inout Material m, bool front) {
+#if MCPT_MAT_ROUGH_DIELECTRIC
+    if (m.type == MAT_ROUGH_DIELECTRIC && !front) m.ior = 1.0 / m.ior;
+#endif
+}
 
 // A one-sided material (two_sided: false) seen from its back (the ray arrives at the geometric
 // back side) reflects nothing, as Mitsuba 3's BSDFs do outside a `twosided` wrapper. Glass is
@@ -124,6 +157,9 @@ bool bsdf_has_smooth(Material m) {
 #if MCPT_MAT_DIELECTRIC
     if (m.type == MAT_DIELECTRIC) return false;
 #endif
+#if MCPT_MAT_THIN_DIELECTRIC
+    if (m.type == MAT_THIN_DIELECTRIC) return false;
+#endif
     return true;
 }
 
@@ -137,8 +173,17 @@ vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
 #if MCPT_MAT_PLASTIC
     if (m.type == MAT_PLASTIC) return plastic_eval(m, n, wo, wi, pdf);
 #endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    if (m.type == MAT_ROUGH_PLASTIC) return roughplastic_eval(m, n, wo, wi, pdf);
+#endif
 #if MCPT_MAT_DIELECTRIC
     if (m.type == MAT_DIELECTRIC) { pdf = 0.0; return vec3(0.0); }
+#endif
+#if MCPT_MAT_ROUGH_DIELECTRIC
+    if (m.type == MAT_ROUGH_DIELECTRIC) return roughdielectric_eval(m, n, wo, wi, false, pdf);
+#endif
+#if MCPT_MAT_THIN_DIELECTRIC
+    if (m.type == MAT_THIN_DIELECTRIC) { pdf = 0.0; return vec3(0.0); }
 #endif
 #if MCPT_MAT_DIFFUSE
     pdf = diffuse_pdf(n, wi);
@@ -149,23 +194,33 @@ vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
 #endif
 }
 
-// Sample wi given wo. `front`: wo is on the geometric front side (outside, for glass). u: two
-// uniform numbers (materials with two lobes pick the lobe with u.x and rescale it). False when
-// the sample carries nothing (the path ends).
+// Sample wi given wo. `front`: wo is on the geometric front side (outside, for glass). u.xy: two
+// uniform numbers (materials with two lobes pick the lobe with u.x and rescale it); u.z: a third
+// for the rough dielectric's lobe (glsl/sampler.glsl rand_bsdf). False when the sample carries
+// nothing (the path ends).
 // Dispatch: one line per BSDF (the Lambertian, the default, last).
-bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec2 u, out BsdfSample s) {
+bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec3 u, out BsdfSample s) {
     s.delta = false; s.transmit = false; s.eta2 = 1.0;
 #if MCPT_MAT_CONDUCTOR
-    if (m.type == MAT_CONDUCTOR) return conductor_sample(m, n, wo, u, s);
+    if (m.type == MAT_CONDUCTOR) return conductor_sample(m, n, wo, u.xy, s);
 #endif
 #if MCPT_MAT_DIELECTRIC
     if (m.type == MAT_DIELECTRIC) return dielectric_sample(m, n, wo, front, u.x, s);
 #endif
 #if MCPT_MAT_PLASTIC
-    if (m.type == MAT_PLASTIC) return plastic_sample(m, n, wo, u, s);
+    if (m.type == MAT_PLASTIC) return plastic_sample(m, n, wo, u.xy, s);
+#endif
+#if MCPT_MAT_ROUGH_DIELECTRIC
+    if (m.type == MAT_ROUGH_DIELECTRIC) return roughdielectric_sample(m, n, wo, u, s);
+#endif
+#if MCPT_MAT_THIN_DIELECTRIC
+    if (m.type == MAT_THIN_DIELECTRIC) return thindielectric_sample(m, n, wo, u.x, s);
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    if (m.type == MAT_ROUGH_PLASTIC) return roughplastic_sample(m, n, wo, u.xy, s);
 #endif
 #if MCPT_MAT_DIFFUSE
-    s.wi = sample_cosine(n, u, s.pdf);
+    s.wi = sample_cosine(n, u.xy, s.pdf);
     s.weight = m.albedo;  // f cos / pdf for the Lambertian
     return true;
 #else
@@ -177,7 +232,7 @@ bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec2 u, out BsdfSample
 // other when refracted (ng: turned to the side the path came from; with shading normals this
 // is the light-leak check, glsl/pathtrace.frag "Normals"). False: the path ends.
 bool bsdf_sample_side_ok(BsdfSample s, vec3 ng) {
-#if MCPT_SMOOTH_NORMALS || MCPT_MAT_DIELECTRIC || MCPT_NORMAL_MAPS
+#if MCPT_SMOOTH_NORMALS || MCPT_TRANSMISSION || MCPT_NORMAL_MAPS
     return (dot(s.wi, ng) > 0.0) != s.transmit;
 #else
     return true;

@@ -35,10 +35,10 @@ void path_scatter(inout Path P, BsdfSample s, vec3 x, vec3 ng, vec3 xo) {
 #if MCPT_DELTA
     P.delta_prev = s.delta;
 #endif
-#if MCPT_MAT_DIELECTRIC && MCPT_RR
+#if MCPT_TRANSMISSION && MCPT_RR
     P.eta_scale *= s.eta2;
 #endif
-#if MCPT_MAT_DIELECTRIC
+#if MCPT_TRANSMISSION
     if (s.transmit) xo = offset_ray(x, -ng);
 #endif
     P.ray = Ray(xo, s.wi);

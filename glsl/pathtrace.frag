@@ -87,6 +87,7 @@ bool path_step(inout Path P) {
     vec3 ns = shading_normal(m, h, ng, cos_o, wo);  // normals.glsl
     if (!normal_map_apply(h, cos_o < 0.0, wo, ns)) return false;  // normal_map.glsl
     m.albedo = albedo_at(m, h);                     // texture.glsl
+    material_side(m, cos_o < 0.0);                  // materials.glsl
     if (material_black(m)) return false;  // pure emitter
     vec3 x = tri_point(h.tri, h.bary);
     vec3 xo = offset_ray(x, ng);
@@ -95,7 +96,7 @@ bool path_step(inout Path P) {
     if (bsdf_has_smooth(m)) next_event(P, m, ns, ng, wo, xo, dim);  // lights.glsl
 #endif
     BsdfSample s;
-    if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand2_at(dim + DIM_BSDF_UV), s)) return false;
+    if (!bsdf_sample(m, ns, wo, cos_o < 0.0, rand_bsdf(dim), s)) return false;
     if (!bsdf_sample_side_ok(s, ng)) return false;
     s.weight *= normal_map_shadow(s.wi);  // normal_map.glsl (1 without normal maps)
     path_scatter(P, s, x, ng, xo);  // path_state.glsl
@@ -125,10 +126,6 @@ vec3 sample_value(vec3 L) {
 // samples that ended in it, minus what earlier draws already added for the one they continued
 // (telescoping, squares likewise), so a sample's draws sum to its value.
 uniform int u_samples;
-// Draw copies (mcpt/gpu/render.py draw_copies): an image smaller than a few of llvmpipe's 64 x 64
-// tiles, each shaded by one thread, is drawn u_copies times side by side; copy c takes the draw's
-// samples c, c + u_copies, ... and the host adds the copies up, so every core gets work.
-uniform int u_copies;
 
 // What a draw adds to a pixel of the accumulation target (see above).
 struct Tally {
@@ -182,23 +179,21 @@ void sample_over(inout Path P) {
 
 void main() {
     ivec2 frag = ivec2(gl_FragCoord.xy);
-    int copy = frag.x / u_resolution.x;
-    ivec2 pixel = ivec2(frag.x - copy * u_resolution.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
+    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
     ivec2 local = pixel - u_tile.xy;
     int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
     Path P;
-    int j = copy;
-    if (j >= u_samples) discard;  // a copy with no sample in this draw adds nothing
+    int j = 0;
 #if MCPT_CONTINUE
     if (u_continue != 0) {
         if (!path_stored(frag)) discard;  // finished in an earlier draw
         P = path_load(frag, j);
         sampler_init(pix, tile_pix, j);
     } else {
-        P = sample_start(pixel, pix, tile_pix, j);
+        P = sample_start(pixel, pix, tile_pix, 0);
     }
 #else
-    P = sample_start(pixel, pix, tile_pix, j);
+    P = sample_start(pixel, pix, tile_pix, 0);
 #endif
     Tally T = tally_start(sample_value(P.L));  // what earlier draws added for this sample
     bool unfinished = false;
@@ -210,8 +205,7 @@ void main() {
         if (path_step(P)) continue;
         sample_over(P);
         tally_sample(T, sample_value(P.L));
-        j += u_copies;
-        if (j >= u_samples) break;
+        if (++j >= u_samples) break;
         P = sample_start(pixel, pix, tile_pix, j);
     }
     // llvmpipe's limiter ended the loop itself (a bounce took more than the rest of the budget,
@@ -219,15 +213,14 @@ void main() {
     // (The compiler knows how the loop's breaks leave j, so the counter, not j, tells.)
     if (!unfinished && loop_limit_reached()) {
         sample_over(P);
-        tally_drop(T, float((u_samples - j + u_copies - 1) / u_copies));  // this copy's rest
+        tally_drop(T, float(u_samples - j));
     }
     if (unfinished) {
         vec3 v = sample_value(P.L);
         if (non_finite(v)) {  // not worth continuing: dropped now
             sample_over(P);
             tally_drop(T, 1.0);
-            j += u_copies;
-            unfinished = j < u_samples;
+            unfinished = ++j < u_samples;
             if (unfinished) P = sample_start(pixel, pix, tile_pix, j);
         } else {
             tally_add(T, v);

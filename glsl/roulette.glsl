@@ -10,7 +10,7 @@
 bool roulette(inout Path P, int k, int dim) {
 #if MCPT_RR
     if (k >= MCPT_RR_START) {
-#if MCPT_MAT_DIELECTRIC
+#if MCPT_TRANSMISSION
         vec3 rb = P.beta * P.eta_scale;
 #else
         vec3 rb = P.beta;

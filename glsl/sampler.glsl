@@ -35,3 +35,14 @@ float rand_at(int dim) { return texelFetch(u_random, dim * u_rand_stride + g_ran
 
 vec2 rand2_at(int dim) { return vec2(rand_at(dim), rand_at(dim + 1)); }
 #endif
+
+// The numbers of a bounce's BSDF sample: its direction pair, and a third only a rough dielectric
+// reads (reflect or refract): the light choice's number, mcpt/shading/sampler.py says why that
+// is unbiased. Other scenes read nothing more.
+vec3 rand_bsdf(int dim) {
+#if MCPT_MAT_ROUGH_DIELECTRIC
+    return vec3(rand2_at(dim + DIM_BSDF_UV), rand_at(dim + DIM_LIGHT_PICK));
+#else
+    return vec3(rand2_at(dim + DIM_BSDF_UV), 0.0);
+#endif
+}

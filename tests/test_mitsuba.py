@@ -262,21 +262,21 @@ def test_instances_are_flattened_with_composed_transforms():
     np.testing.assert_allclose(shapes[3][1] @ [0, 0, 0, 1], [3, 0, 0, 1])     # scale 3 of x 1
 
 
-def test_plastic_default_is_mapped_exactly_to_mcpts_nonlinear_plastic(tmp_path):
-    from mcpt.shading.materials import fdr_internal
-
-    path = write_xml(tmp_path, '<shape type="sphere"><bsdf type="plastic"><rgb name="diffuse_reflectance" '
-                     'value="0.5"/><float name="int_ior" value="1.5"/></bsdf></shape>')
-    mat = next(iter(scene_data(path)[0]["materials"].values()))
-    a, f = mat["albedo"][0], fdr_internal(mat["ior"])  # 1.5 / 1.000277 (ext_ior: air)
-    assert a / (1 - a * f) == pytest.approx(0.5 / (1 - f))  # mcpt's base == Mitsuba's linear one
+def test_plastic_nonlinear_mode_is_mapped_as_given(tmp_path):
+    """Mitsuba's plastic defaults to nonlinear=false, mcpt's YAML plastic to true: the reader says
+    which (the shader implements both, glsl/bsdf_plastic.glsl; textured albedos included)."""
+    for flag, want in (("", False), ('<boolean name="nonlinear" value="true"/>', True)):
+        path = write_xml(tmp_path, '<shape type="sphere"><bsdf type="plastic"><rgb name="diffuse_reflectance" '
+                         f'value="0.5"/><float name="int_ior" value="1.5"/>{flag}</bsdf></shape>')
+        mat = next(iter(scene_data(path)[0]["materials"].values()))
+        assert mat["nonlinear"] is want and mat["albedo"] == [0.5, 0.5, 0.5]
 
 
 # --- refusals: one line, file:line: <element>: reason ---------------------------------------------
 
 REFUSALS = [
-    ('<shape type="sphere"><bsdf type="roughplastic"/></shape>',
-     r'<bsdf type="roughplastic">: not supported by mcpt \(supported: diffuse'),
+    ('<shape type="sphere"><bsdf type="principled"/></shape>',
+     r'<bsdf type="principled">: not supported by mcpt \(supported: diffuse'),
     ('<shape type="bsplinecurve"/>', r'<shape type="bsplinecurve">: not supported by mcpt'),
     ('<emitter type="projector"/>', r'<emitter type="projector">: not supported by mcpt'),
     ('<integrator type="aov"/><shape type="sphere"/>',

@@ -12,7 +12,8 @@ what a user renders with. Fields are named alike in :func:`derive`, :func:`for_w
 program as compiled through ``Features``' properties (``features.bvh``, ``features.nee``, ...).
 
 Materials: each type compiles its own ``glsl/bsdf_<type>.glsl`` only when the scene uses it; the
-GGX microfacet code only when some conductor is rough; texture and vertex-normal lookups (and
+GGX microfacet code only when some conductor is rough (Beckmann and the separable masking term
+only when some rough material chooses them: mcpt/shading/microfacet.py); texture and vertex-normal lookups (and
 their UV / normal buffers) only when some material has an ``albedo_texture`` / ``smooth_normals``;
 the complex (exact conductor) Fresnel and its extra material texel only when some conductor uses
 ``fresnel: conductor``; the back-side test only when some material is one-sided.
@@ -24,6 +25,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..scene.animation import camera_moves
+from ..shading import microfacet, thindielectric
 from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.roulette import RR_START
@@ -91,6 +93,11 @@ class Uses:
     diffuse: bool = True            # Lambertian material present
     conductor: bool = False         # conductor (mirror or rough metal) present
     microfacet: bool = False        # some conductor is rough: GGX code
+    beckmann: bool = False          # some rough material is Beckmann (mcpt/shading/microfacet.py)
+    separable_masking: bool = False  # some rough material has masking: separable
+    rough_dielectric: bool = False  # rough glass present (mcpt/shading/roughdielectric.py)
+    thin_dielectric: bool = False   # thin glass present (mcpt/shading/thindielectric.py)
+    rough_plastic: bool = False     # rough plastic present: its 16-texel table (roughplastic.py)
     dielectric: bool = False        # smooth glass present
     absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
@@ -116,23 +123,29 @@ class Uses:
             self, lights=True, single_light=False, area_lights=True, point_lights=True, spot_lights=True,
             directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
-            fresnel_complex=True, one_sided=True, normal_maps=True,
-            opacity=True)
+            fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,
+            separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True)
 
     @property
     def delta(self) -> bool:
         """Some material has a specular (delta) lobe: light found through it is not MIS-weighted."""
-        return self.conductor or self.dielectric or self.plastic
+        return self.conductor or self.dielectric or self.plastic or self.rough_dielectric or self.thin_dielectric
+
+    @property
+    def transmission(self) -> bool:
+        """Some material refracts: offsets to the other side, eta-corrected roulette."""
+        return self.dielectric or self.rough_dielectric or self.thin_dielectric
 
     @property
     def material_texels(self) -> int:
         """Texels per material in the table: 2 for diffuse-only scenes, 4 with any parameter, 5
         with a complex-Fresnel conductor (its k)."""
+        table = 16 if self.rough_plastic else 0
         if self.conductor and self.fresnel_complex:
-            return 5
+            return 5 + table
         extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
-                 or self.one_sided)
-        return 4 if extra else 2
+                 or self.one_sided or self.rough_dielectric or self.thin_dielectric or self.rough_plastic)
+        return (4 if extra else 2) + table
 
     @property
     def written_out(self) -> int:
@@ -304,10 +317,16 @@ class Features:
             "MCPT_VERT_COUNT": len(u.vert_addr) if written else 0,
             "MCPT_MAT_DIFFUSE": b(u.diffuse),
             "MCPT_MAT_CONDUCTOR": b(u.conductor),
-            "MCPT_MICROFACET": b(u.conductor and u.microfacet),
+            "MCPT_MICROFACET": b(u.microfacet),
+            "MCPT_BECKMANN": b(u.microfacet and u.beckmann),
+            "MCPT_SEPARABLE_MASKING": b(u.microfacet and u.separable_masking),
             "MCPT_MAT_DIELECTRIC": b(u.dielectric),
             "MCPT_ABSORPTION": b(u.dielectric and u.absorption),
             "MCPT_MAT_PLASTIC": b(u.plastic),
+            "MCPT_MAT_ROUGH_DIELECTRIC": b(u.rough_dielectric),
+            "MCPT_MAT_THIN_DIELECTRIC": b(u.thin_dielectric),
+            "MCPT_MAT_ROUGH_PLASTIC": b(u.rough_plastic),
+            "MCPT_TRANSMISSION": b(u.transmission),
             "MCPT_DELTA": b(u.delta),
             "MCPT_MAT_TEXELS": u.material_texels,
             "MCPT_TEXTURES": b(u.textures),
@@ -386,7 +405,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids),
         opacity=mt.cut_out(ids), **{"bvh_dense": world.bvh.dense, **flags})
-    f = f.replace(**camera_uses(world.scene.camera))
+    f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids), **camera_uses(world.scene.camera))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

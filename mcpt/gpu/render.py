@@ -36,7 +36,6 @@ from ..shading.sobol import seed32
 from . import aov as aov_mod
 from . import shader
 from .context import GLContext
-from .draw_copies import DrawCopies, draw_copies
 from .features import Features, samples_per_draw
 from .pack import Packed
 from .path_state import PathState
@@ -172,13 +171,7 @@ class Renderer:
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
                         for _ in range(n_targets)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
-        # Small images: the draw copied side by side so that every core gets a tile (draw_copies.py).
-        self.copies = 1 if features.uploads_random else draw_copies(self.width, self.height,
-                                                                    self.samples_per_draw, cap)
-        self.copy_targets = (DrawCopies(ctx, self.width, self.height, self.copies, n_targets)
-                             if self.copies > 1 else None)
-        self.paths = (PathState(ctx, self.width * self.copies, self.height) if features.continues
-                      else None)
+        self.paths = PathState(ctx, self.width, self.height) if features.continues else None
         self.vao = ctx.vertex_array(self.program, [])
         for name, value in packed.uniforms.items():
             self._uniform(name, value)
@@ -193,7 +186,6 @@ class Renderer:
                                       if features.uploads_random else 0),
             "sampler": features.sampler,
             "tiles": len(self.tiles),
-            "draw_copies": self.copies,
         }
 
     def _uniform(self, name, value):
@@ -244,7 +236,6 @@ class Renderer:
             while p < stop:
                 n = min(spd - p % spd, chunk - p % chunk, stop - p)  # on the global grid
                 self._uniform("u_samples", n)
-                self._uniform("u_copies", self.copies)  # per draw: renderers may share a program
                 for ti, (x0, y0, w, h) in todo:
                     if upload:
                         tr = time.perf_counter()
@@ -259,8 +250,14 @@ class Renderer:
                     self._uniform("u_rand_stride", w * h)
                     # GL rows count from the bottom; tiles are given from the top.
                     ctx.scissor = (x0, self.height - y0 - h, w, h)
-                    self._draw(n)
+                    if self.paths is not None:
+                        self.paths.reset_count()
+                    self.vao.render(moderngl.TRIANGLES, vertices=3)
                     draws += 1
+                    if self.paths is not None:  # long paths: further draws until all have ended
+                        self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
+                                          lambda v: self._uniform("u_continue", v),
+                                          limit=n * (self.features.bounces + 2))
                 p += n
                 stopping = interrupt is not None and interrupt(p)
                 if p % chunk == 0 or p == stop or stopping:
@@ -272,21 +269,6 @@ class Renderer:
         finally:
             ctx.scissor = None
             ctx.disable(moderngl.BLEND)
-
-    def _draw(self, n: int) -> None:
-        """The draw of ``n`` samples per pixel (scissored to its tile), continuation draws for
-        long paths, and small images' copies added up (draw_copies.py; one tile then)."""
-        if self.copy_targets is not None:
-            self.copy_targets.begin()  # the copies' full width
-        if self.paths is not None:
-            self.paths.reset_count()
-        self.vao.render(moderngl.TRIANGLES, vertices=3)
-        if self.paths is not None:  # long paths: further draws until all have ended
-            self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
-                              lambda v: self._uniform("u_continue", v),
-                              limit=n * (self.features.bounces + 2))
-        if self.copy_targets is not None:
-            self.copy_targets.end(self.fbo)
 
     def result(self, total: np.ndarray, spp: int, seed: int, seconds: float,
                random_seconds: float) -> RenderResult:
@@ -324,8 +306,6 @@ class Renderer:
             t.release()
         self.vao.release()
         self.fbo.release()
-        if self.copy_targets is not None:
-            self.copy_targets.release()
         if self.paths is not None:
             self.paths.release()
         for t in self.targets:

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..shading import roughplastic
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from .materials import ImageTexture, Material
@@ -39,6 +40,7 @@ from .textures import (
 
 log = logging.getLogger("mcpt")
 
+GLASS = ("dielectric", "roughdielectric", "thindielectric")  # no albedo
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # when neither the YAML nor the mesh file gives one
 BLACK = (0.0, 0.0, 0.0)
 RGB = tuple[float, float, float]
@@ -74,6 +76,9 @@ class MaterialRow:
     one_sided: bool = False
     normal_map: object = None  # the YAML NormalMap, then (texture id, scale, right_handed) (_add)
     opacity: object = None     # the YAML opacity texture and cutoff, then (texture id, cutoff) (_add)
+    distribution: str = "ggx"
+    masking: str = "height_correlated"
+    nonlinear: bool = False
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -106,7 +111,7 @@ def albedo_from_file(ym: Material | None) -> bool:
     """Whether the mesh file's Kd / map_Kd gives this YAML material its albedo (it is silent on it)."""
     if ym is None:
         return True
-    if ym.albedo is not None or ym.albedo_texture is not None or ym.type == "dielectric":
+    if ym.albedo is not None or ym.albedo_texture is not None or ym.type in GLASS:
         return False
     return ym.type != "conductor" or ym.fresnel_mode == "schlick"
 
@@ -120,7 +125,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     """The scene's material ``ym``, the file's reflectance ``kd`` and emission ``ke`` where it is
     silent."""
     albedo = tuple(ym.albedo) if ym.albedo is not None else kd
-    if ym.type == "dielectric":
+    if ym.type in GLASS:
         albedo = (1.0, 1.0, 1.0)  # unused: glass has no albedo
     elif ym.type == "conductor" and ym.fresnel_mode != "schlick":
         # The albedo slot holds the lobe scale (specular_reflectance, texturable).
@@ -131,6 +136,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
+                       distribution=ym.distribution, masking=ym.masking, nonlinear=ym.nonlinear_mode,
                        **conductor_columns(ym))
 
 
@@ -213,7 +219,10 @@ class MaterialResolver:
                              spec=rgb("spec"), eta=rgb("eta"), k=rgb("k"),
                              one_sided=col("one_sided", bool),
                              normal_map=tuple(r.normal_map for r in rows),
-                             opacity=tuple(r.opacity for r in rows))
+                             opacity=tuple(r.opacity for r in rows),
+                             distribution=tuple(r.distribution for r in rows),
+                             masking=tuple(r.masking for r in rows), nonlinear=col("nonlinear", bool),
+                             coat=np.asarray([_coat(r) for r in rows]).reshape(-1, 65))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -282,6 +291,14 @@ class MaterialResolver:
             raise TextureError(f"{mesh_where}: {spec.file}: material {mm.name!r} of {tmap.declared_in}: "
                                f"{tmap.keyword} texture not found: {tmap.file}")
         return TextureRef(tmap.file)
+
+
+def _coat(row: MaterialRow) -> np.ndarray:
+    """A rough plastic's coat tables (T at 64 cosines, then Fdr_int); zeros for other rows."""
+    if row.type != "roughplastic":
+        return np.zeros(65)
+    table, fdr = roughplastic.tables(float(row.ior), float(row.alpha), row.distribution)
+    return np.append(table, fdr)
 
 
 def _file_emission(mesh_file: Path, mm, ke: RGB, ref: TextureRef | None) -> RGB:

@@ -17,6 +17,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from ..shading.metals import METALS
+from ..shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
 from .textures import (
@@ -112,20 +113,26 @@ class Absorption(StrictModel):
 MATERIAL_KEYS = {
     "diffuse": ("albedo", "albedo_texture", "two_sided"),
     "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
-                  "specular_reflectance", "two_sided"),
+                  "specular_reflectance", "two_sided", "distribution", "masking"),
     "dielectric": ("ior", "absorption"),
-    "plastic": ("albedo", "albedo_texture", "ior", "two_sided"),
+    "plastic": ("albedo", "albedo_texture", "ior", "nonlinear", "two_sided"),
+    "roughdielectric": ("ior", "roughness", "distribution", "masking"),
+    "thindielectric": ("ior",),
+    "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
+                     "two_sided"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
-             "metal", "specular_reflectance", "two_sided")
+             "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear")
 
 
 class Material(StrictModel):
     """A surface material (GLSL: glsl/bsdf_<type>.glsl; table: mcpt/shading/materials.py).
 
     * ``diffuse``: Lambertian, reflectance ``albedo`` (or ``albedo_texture``).
-    * ``conductor``: metal. ``roughness`` is the GGX alpha: 0 (below 0.001) is a perfect mirror,
-      larger values a rough metal (Smith height-correlated masking, visible-normal sampling). The
+    * ``conductor``: metal. ``roughness`` is the microfacet alpha: 0 (below 0.001) is a perfect
+      mirror, larger values a rough metal of ``distribution`` ``ggx`` (default, visible-normal
+      sampling) or ``beckmann``, with Smith ``masking`` ``height_correlated`` (default) or
+      ``separable`` (Mitsuba 3's). The
       Fresnel factor (``fresnel``): ``schlick`` (default) with ``albedo`` the reflectance at normal
       incidence; ``none``, F = 1 at every angle (Mitsuba's ``material: none``, the reference
       mirror); ``conductor``, the exact unpolarised Fresnel of a complex index ``eta`` + i ``k``
@@ -136,6 +143,16 @@ class Material(StrictModel):
     * ``plastic``: a Lambertian base (``albedo``) under a smooth dielectric coat of index ``ior``:
       a mirror-like reflection (Fresnel) plus diffuse light that got through the coat, including
       the light the coat reflects back onto the base. A white plastic reflects all light.
+      ``nonlinear`` (default true here) as Mitsuba's: false divides the base by 1 - Fdr_int, true
+      by 1 - A Fdr_int (Mitsuba's plastic defaults to false: its reader says so explicitly).
+    * ``roughdielectric``: frosted glass, a rough interface of index ``ior`` (Walter et al. 2007,
+      Mitsuba 3's ``roughdielectric``): ``roughness`` (alpha in [0.001, 1]), ``distribution``,
+      ``masking`` as for a rough conductor (glsl/bsdf_roughdielectric.glsl).
+    * ``thindielectric``: a window pane of index ``ior`` (Mitsuba 3's ``thindielectric``): light
+      passes unrefracted or reflects, the pane's internal reflections summed.
+    * ``roughplastic``: Mitsuba 3's ``roughplastic``: a Lambertian base (``albedo``) under a rough
+      dielectric coat (``ior``, ``roughness`` in [0.001, 1], ``distribution``, ``masking``), the
+      coat's internal reflections by Mitsuba's ``nonlinear`` rule (default false).
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -144,8 +161,10 @@ class Material(StrictModel):
     two sides by nature.
     """
 
-    type: Literal["diffuse", "conductor", "dielectric", "plastic"] = "diffuse"
-    """Material model: diffuse, conductor, dielectric or plastic."""
+    type: Literal["diffuse", "conductor", "dielectric", "plastic", "roughdielectric", "thindielectric",
+                  "roughplastic"] = "diffuse"
+    """Material model: diffuse, conductor, dielectric, plastic, roughdielectric, thindielectric or
+    roughplastic."""
     albedo: Albedo | None = None
     """Linear RGB reflectance in [0, 1]; None = the mesh's MTL ``Kd``, else 0.8 grey. For a
     conductor: the reflectance at normal incidence."""
@@ -153,7 +172,12 @@ class Material(StrictModel):
     """An image as the albedo (a file name or ``{file, wrap, filter, uv}``) or a checkerboard
     (``{type: checkerboard, color0, color1, uv}``, mcpt/scene/textures.py); excludes ``albedo``."""
     roughness: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
-    """Conductor: GGX alpha in [0, 1]; 0 = mirror."""
+    """Conductor: the microfacet alpha in [0, 1], 0 = mirror; roughdielectric: [0.001, 1]."""
+    distribution: Literal["ggx", "beckmann"] = "ggx"
+    """Rough conductor or dielectric: the microfacet distribution (mcpt/shading/microfacet.py)."""
+    masking: Literal["height_correlated", "separable"] = "height_correlated"
+    """Rough conductor or dielectric: the Smith masking-shadowing term, height-correlated (Heitz 2014) or
+    separable G1(wo) G1(wi) (Mitsuba 3's; the Mitsuba reader picks it)."""
     ior: Annotated[float, Field(ge=1.0, le=4.0)] = 1.5
     """Dielectric, plastic: index of refraction (the outside is air, index 1)."""
     absorption: Absorption | None = None
@@ -188,6 +212,10 @@ class Material(StrictModel):
     bump_map: Annotated[BumpMap | None, BeforeValidator(normal_map_shorthand)] = None
     """A height image (a file name or ``{file, scale, encoding, wrap}``, mcpt/scene/textures.py);
     any type; excludes ``normal_map``."""
+    nonlinear: bool | None = None
+    """Plastic, rough plastic: Mitsuba's ``nonlinear`` (the base's albedo inside the internal-reflection
+    sum); None: true for ``plastic`` (mcpt's model since issue #3), false for ``roughplastic`` (Mitsuba's
+    default)."""
     smooth_normals: bool = False
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
@@ -221,7 +249,19 @@ class Material(StrictModel):
             raise FieldError(("bump_map",), "give normal_map or bump_map, not both")
         if self.type == "conductor":
             self._check_fresnel()
+        if self.type in ("dielectric", "roughdielectric", "thindielectric", "roughplastic") and self.ior == 1.0:
+            raise FieldError(("ior",), "ior 1 is no interface (the same index on both sides: the "
+                                       "surface would be invisible); a dielectric needs ior > 1")
+        if self.type in ("roughdielectric", "roughplastic") and self.roughness < ROUGH_GLASS_MIN_ALPHA:
+            raise FieldError(("roughness",), f"a {self.type} needs roughness (alpha) in "
+                                             f"[{ROUGH_GLASS_MIN_ALPHA:g}, 1], got {self.roughness:g} "
+                                             f"(smooth glass is type: dielectric)")
         return self
+
+    @property
+    def nonlinear_mode(self) -> bool:
+        """A plastic's nonlinear mode with the type's default resolved."""
+        return self.nonlinear if self.nonlinear is not None else self.type == "plastic"
 
     @property
     def fresnel_mode(self) -> str:

@@ -10,12 +10,15 @@
     2: alpha, ior, texture, flags   GGX alpha (conductor), index of refraction (dielectric,
                                     plastic), albedo texture id (0xffffffff: none), flags:
                                     bit 0 smooth normals, bits 1-2 conductor Fresnel mode
-                                    (0 Schlick, 1 none, 2 complex), bit 3 one-sided
+                                    (0 Schlick, 1 none, 2 complex), bit 3 one-sided, bits 4-5
+                                    Beckmann, separable masking (mcpt/shading/microfacet.py)
     3: sigma_a.rgb, fdr_int         absorption coefficient per unit length (dielectric);
                                     conductor: Schlick's lobe scale (specular_reflectance), or
                                     eta (complex Fresnel); the coat's internal diffuse
                                     Fresnel reflectance (plastic)
     4: k.rgb, 0                     conductor with complex Fresnel: the extinction coefficient
+    last 16                         rough plastic (mcpt/shading/roughplastic.py): 3.x the coat's
+                                    sampling weight, 3.w Fdr_int, then T at 64 cosines
 
 Texels 2 and 3 exist only when the scene needs one of their values (the data diet): a
 diffuse-only scene without textures, smooth normals or one-sided materials uploads 2 texels per
@@ -29,12 +32,18 @@ from functools import lru_cache
 
 import numpy as np
 
-TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
+from . import microfacet
+
+TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5,
+         "roughplastic": 6}
+#: Glass has two sides by nature: never one-sided.
+TWO_SIDED_TYPES = ("dielectric", "roughdielectric", "thindielectric")
 
 FLAG_SMOOTH_NORMALS = 1
 FRESNEL = {"schlick": 0, "none": 1, "conductor": 2}
 FRESNEL_SHIFT = 1             # flags bits 1-2: the conductor's Fresnel mode
 FLAG_ONE_SIDED = 8            # the back side is black
+FLAG_NONLINEAR = 64           # plastics: Mitsuba's nonlinear (bits 4-5: microfacet.py)
 NO_TEXTURE = 0xFFFFFFFF
 
 #: GGX alpha below which a conductor is a perfect mirror (pbrt-v4's EffectivelySmooth): the
@@ -80,7 +89,7 @@ class MaterialTable:
     types: tuple[str, ...]
     albedo: np.ndarray          # (M, 3) linear RGB reflectance
     emission: np.ndarray        # (M, 3) emitted radiance, front side only
-    alpha: np.ndarray = None    # (M,) GGX alpha (conductor; 0: mirror)
+    alpha: np.ndarray = None    # (M,) microfacet alpha (conductor, 0: mirror; rough dielectric)
     ior: np.ndarray = None      # (M,) index of refraction (dielectric, plastic)
     texture: np.ndarray = None  # (M,) albedo texture id, -1: none
     smooth: np.ndarray = None   # (M,) bool: shade with vertex normals
@@ -92,6 +101,10 @@ class MaterialTable:
     one_sided: np.ndarray = None  # (M,) bool: the back side is black
     normal_map: tuple = None    # (M,) (texture id, scale, right_handed, bump) or None (mcpt/shading/normal_map.py)
     opacity: tuple = None       # (M,) (texture id, cutoff or None) or None (mcpt/shading/opacity.py)
+    distribution: tuple = None  # (M,) rough materials: "ggx" or "beckmann" (microfacet.py)
+    masking: tuple = None       # (M,) rough materials: "height_correlated" or "separable"
+    nonlinear: np.ndarray = None  # (M,) bool: a plastic's nonlinear mode
+    coat: np.ndarray = None     # (M, 65) rough plastic: T at 64 cosines, Fdr_int (roughplastic.py)
 
     def __post_init__(self):
         m = len(self.names)
@@ -99,7 +112,8 @@ class MaterialTable:
                     "smooth": np.zeros(m, bool), "sigma_a": np.zeros((m, 3)),
                     "fresnel": ("schlick",) * m, "spec": np.ones((m, 3)), "eta": np.ones((m, 3)),
                     "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool), "normal_map": (None,) * m,
-                    "opacity": (None,) * m}
+                    "opacity": (None,) * m, "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m,
+                    "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65))}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -111,8 +125,13 @@ class MaterialTable:
             return np.flatnonzero(np.bincount(ids)).tolist()
         return sorted({int(i) for i in np.unique(ids)})
 
+    def is_rough(self, i: int) -> bool:
+        """Whether material ``i`` is a microfacet surface (alpha >= MIN_ALPHA: a rough conductor;
+        a rough dielectric always is)."""
+        return self.types[i] in ("conductor", "roughdielectric", "roughplastic") and self.alpha[i] >= MIN_ALPHA
+
     def rough(self, ids) -> bool:
-        return any(self.types[i] == "conductor" and self.alpha[i] >= MIN_ALPHA for i in self.used(ids))
+        return any(self.is_rough(i) for i in self.used(ids))
 
     def absorbing(self, ids) -> bool:
         return any(self.types[i] == "dielectric" and self.sigma_a[i].max() > 0 for i in self.used(ids))
@@ -134,7 +153,7 @@ class MaterialTable:
         return any(self.types[i] == "conductor" and self.fresnel[i] == "conductor" for i in self.used(ids))
 
     def one_sided_used(self, ids) -> bool:
-        return any(bool(self.one_sided[i]) and self.types[i] != "dielectric" for i in self.used(ids))
+        return any(bool(self.one_sided[i]) and self.types[i] not in TWO_SIDED_TYPES for i in self.used(ids))
 
     def pack(self, light_pdf_area: np.ndarray, texels: int = 2) -> np.ndarray:
         m = len(self.names)
@@ -151,15 +170,28 @@ class MaterialTable:
             out[:m, 2, 2] = np.where(self.texture >= 0, self.texture, NO_TEXTURE).astype(np.uint32)
             conductor = np.array([t == "conductor" for t in self.types], bool)
             mode = np.array([FRESNEL[f] if c else 0 for f, c in zip(self.fresnel, conductor)], np.uint32)
-            one = self.one_sided & np.array([t != "dielectric" for t in self.types], bool)
+            one = self.one_sided & np.array([t not in TWO_SIDED_TYPES for t in self.types], bool)
+            mf = [microfacet.flags(d, g) for d, g in zip(self.distribution, self.masking)]
             out[:m, 2, 3] = (np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0) | (mode << FRESNEL_SHIFT)
-                             | np.where(one, FLAG_ONE_SIDED, 0)).astype(np.uint32)
+                             | np.where(one, FLAG_ONE_SIDED, 0) | np.asarray(mf, np.int64)
+                             | np.where(self.nonlinear, FLAG_NONLINEAR, 0)).astype(np.uint32)
             # Texel 3 rgb per type: sigma_a (dielectric), Schlick's lobe scale or eta (conductor).
             third = np.where(conductor[:, None], np.where((mode == FRESNEL["conductor"])[:, None],
                                                           self.eta, self.spec), self.sigma_a)
             out[:m, 3, :3] = f32(third)
             fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
             out[:m, 3, 3] = f32(fdr)
-        if texels >= 5:
+            self._pack_rough_plastic(out, texels)
+        if texels in (5, 21):
             out[:m, 4, :3] = f32(self.k)
         return out.reshape(-1, 4)
+
+    def _pack_rough_plastic(self, out: np.ndarray, texels: int) -> None:
+        """Rough plastic (mcpt/shading/roughplastic.py): the coat's sampling weight 1 / (1 + mean A)
+        in texel 3.x, Fdr_int in 3.w, the 64-entry transmittance table in the last 16 texels."""
+        for i, t in enumerate(self.types):
+            if t != "roughplastic":
+                continue
+            out[i, 3, :3] = np.float32([1.0 / (1.0 + float(np.mean(self.albedo[i]))), 0.0, 0.0]).view(np.uint32)
+            out[i, 3, 3] = np.float32(self.coat[i, 64]).view(np.uint32)
+            out[i, texels - 16:texels] = np.asarray(self.coat[i, :64], np.float32).view(np.uint32).reshape(16, 4)

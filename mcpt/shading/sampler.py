@@ -13,9 +13,14 @@ same six numbers serve every material (glsl/materials.glsl), so no material feat
 dimensions: a vertex without a light sample (mirror, glass) leaves + 0..2 unread; glass picks
 reflection or refraction with + 3 (its directions are fixed); plastic picks its lobe with + 3 and
 rescales it to [0, 1) for the diffuse direction ((u - p) / (1 - p) is uniform given u >= p: the
-"sample reuse" of pbrt-v4), which costs a few of the 24 bits, far below what a direction needs.
-Because the layout does not depend on the sampling mode either, NEE-only, BSDF-only and MIS renders
-with one seed draw the same BSDF directions (the tests compare their variances that way).
+"sample reuse" of pbrt-v4), which costs a few of the 24 bits, far below what a direction needs. A
+rough dielectric needs a third number after its microfacet normal (reflect or refract by the
+Fresnel of that facet): it reads + 0, the light choice's (glsl/sampler.glsl rand_bsdf). The light
+sample and the BSDF sample are separate terms of the vertex's estimate, each unbiased on its own,
+so their sharing a number changes their correlation, never the expected value; scenes without rough
+glass read nothing more. Because the layout does not depend on the sampling mode either, NEE-only,
+BSDF-only and MIS renders with one seed draw the same BSDF directions (the tests compare their
+variances that way).
 
 Samplers (``--sampler``, features.SAMPLERS):
 

@@ -2,17 +2,18 @@
 // routine of the real GLSL per item and return its result as float bits, so the host can run
 // chi-square and energy tests on exactly what the renderer executes. Item i reads texel i of the
 // probe buffer. The material comes from uniforms; the shading normal is +z.
-//   mode 0  bsdf_sample(u = p.xy)      -> (wi.xyz, pdf); wi = 0 when the sample was rejected
-//   mode 1  bsdf_sample(u = p.xy)      -> (weight.rgb, flags: 1 valid, 2 delta, 4 transmit)
+//   mode 0  bsdf_sample(u = p.xyz)     -> (wi.xyz, pdf); wi = 0 when the sample was rejected
+//   mode 1  bsdf_sample(u = p.xyz)     -> (weight.rgb, flags: 1 valid, 2 delta, 4 transmit)
 //   mode 2  bsdf_eval(wi = p.xyz)      -> (f|cos|.rgb, pdf)
 //   mode 3  light_pick(u = p.x)        -> (light index, pmf, 0, 0)
 //   mode 4  sample_triangle_bary(p.xy) -> (b1, b2, 0, 0)
 //   mode 5  texture_rgb(p.z, uv = p.xy) -> (rgb, 0)
 //   mode 6  shading_normal_raw(tri = p.x, bary = p.yz), normalised -> (n.xyz, 0)
-//   mode 7  bsdf_sample(u = p.xy)      -> (eta2, 0, 0, 0)
+//   mode 7  bsdf_sample(u = p.xyz)     -> (eta2, 0, 0, 0)
 //   mode 8  fresnel_conductor(cos = p.x, eta = p.y, k = p.z; the same in each channel) -> (F.rgb, 0)
 //   mode 9  sample_cone(u = p.xy, axis = u_wo, cos_max = u_alpha) -> (wi.xyz, 0)  (sun disks)
 //   mode 10 sample_uniform_sphere(u = p.xy) -> (wi.xyz, 0)  (constant environment)
+//   mode 11 roughdielectric_eval(wi = p.xyz), both lobes -> (f|cos|.rgb, pdf)
 #include "common.glsl"
 #include "materials.glsl"
 #if MCPT_NEE
@@ -49,8 +50,11 @@ Material probe_material() {
     m.sigma_a = vec3(0.0); m.fdr_int = u_fdr_int;
     m.scale = u_scale; m.eta = u_eta;
 #endif
-#if MCPT_MAT_TEXELS > 4
+#if MCPT_FRESNEL_COMPLEX
     m.k = u_k;
+#endif
+#if MCPT_MAT_ROUGH_PLASTIC
+    m.base = 0;     // a rough plastic's table: texels of the bound material buffer
 #endif
     return m;
 }
@@ -62,9 +66,10 @@ void main() {
     uvec4 p = texelFetch(u_probe, i);
     vec3 n = vec3(0.0, 0.0, 1.0);
     Material m = probe_material();
+    material_side(m, u_front != 0);
     if (u_mode == 0 || u_mode == 1 || u_mode == 7) {
         BsdfSample s;
-        bool ok = bsdf_sample(m, n, u_wo, u_front != 0, uintBitsToFloat(p.xy), s);
+        bool ok = bsdf_sample(m, n, u_wo, u_front != 0, uintBitsToFloat(p.xyz), s);
         if (u_mode == 0) {
             if (ok) o_out = uvec4(floatBitsToUint(s.wi), floatBitsToUint(s.pdf));
         } else if (u_mode == 1) {
@@ -85,6 +90,13 @@ void main() {
         o_out = uvec4(uint(lt), floatBitsToUint(pmf), 0u, 0u);
     } else if (u_mode == 4) {
         o_out = uvec4(floatBitsToUint(sample_triangle_bary(uintBitsToFloat(p.xy))), 0u, 0u);
+    }
+#endif
+#if MCPT_MAT_ROUGH_DIELECTRIC
+    else if (u_mode == 11) {
+        float pdf;
+        vec3 f = roughdielectric_eval(m, n, u_wo, uintBitsToFloat(p.xyz), true, pdf);
+        o_out = uvec4(floatBitsToUint(f), floatBitsToUint(pdf));
     }
 #endif
 #if MCPT_FRESNEL_COMPLEX

@@ -1,7 +1,8 @@
 """Mitsuba 3 BSDFs -> mcpt materials (the same mapping a YAML ``materials:`` entry gives).
 
-Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX; Beckmann approximated by GGX of
-the same alpha with a warning), ``dielectric``, ``plastic``, ``twosided`` (one BSDF for both
+Supported: ``diffuse``, ``conductor``, ``roughconductor`` (GGX or Beckmann, with Mitsuba 3's
+separable Smith masking term), ``dielectric``, ``roughdielectric`` (likewise), ``thindielectric``,
+``plastic``, ``roughplastic`` (both ``nonlinear`` modes, exactly), ``twosided`` (one BSDF for both
 sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_sided: false``;
 ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
 (diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` or ``checkerboard`` texture
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import logging
 
-from ...shading.materials import fdr_internal
+from ...shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from . import values as V
 from .conductors import MITSUBA_CONDUCTORS
 from .textures import bump_map, mask, normal_map, texture
@@ -20,7 +21,8 @@ from .xmltree import Node, deref
 
 log = logging.getLogger("mcpt")
 
-SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "plastic", "twosided",
+SUPPORTED = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "thindielectric",
+             "plastic", "roughplastic", "twosided",
              "normalmap", "bumpmap", "mask")  # the last three: mcpt/scene/mitsuba/textures.py
 
 #: Mitsuba's named indices of refraction (its data/ior table: the ones a scene is likely to name).
@@ -111,8 +113,10 @@ def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
     return out
 
 
-def _rough(bsdf: Node, props: dict[str, Node]) -> float:
-    """The GGX alpha of a roughconductor (Beckmann approximated with a warning)."""
+def _rough(bsdf: Node, props: dict[str, Node]) -> dict:
+    """The microfacet keys of a rough BSDF: alpha, Mitsuba's distribution (Beckmann by default) and
+    its separable masking term G1(wi) G1(wo) (include/mitsuba/render/microfacet.h). ``sample_visible``
+    changes only how directions are drawn (the variance), not the image: accepted and ignored."""
     dist = V.as_string(props["distribution"]) if "distribution" in props else "beckmann"
     if dist not in ("ggx", "beckmann"):
         raise props["distribution"].error(f"distribution {dist!r}: expected ggx or beckmann")
@@ -125,26 +129,9 @@ def _rough(bsdf: Node, props: dict[str, Node]) -> float:
         alpha = au
     else:
         alpha = V.as_float(props["alpha"]) if "alpha" in props else 0.1
-    if dist == "beckmann":
-        log.warning("%s:%d: %s: the Beckmann distribution is approximated by GGX of the same alpha "
-                    "%.4g (mcpt has GGX only)", bsdf.file, bsdf.line, bsdf.label, alpha)
     if not 0.0 <= alpha <= 1.0:
         raise (props.get("alpha") or bsdf).error(f"alpha {alpha} out of [0, 1]")
-    return alpha
-
-
-def _linear_plastic(out: dict, bsdf: Node) -> dict:
-    """Mitsuba's default plastic (``nonlinear=false``) scales the base by 1 / (1 - Fdr) where
-    mcpt's (Mitsuba's ``nonlinear=true``, glsl/bsdf_plastic.glsl) divides by (1 - A Fdr); the
-    albedo A' = A / (1 - Fdr + Fdr A) makes the two equal exactly (A' <= 1 for A <= 1). A texture
-    cannot be remapped per texel here: approximated with a warning."""
-    f = fdr_internal(out["ior"])
-    if "albedo" in out:
-        out["albedo"] = [a / (1.0 - f + f * a) for a in out["albedo"]]
-    else:
-        log.warning("%s:%d: %s: a textured plastic with nonlinear=false is approximated by "
-                    "nonlinear=true (mcpt's plastic): its base is darker", bsdf.file, bsdf.line, bsdf.label)
-    return out
+    return {"roughness": alpha, "distribution": dist, "masking": "separable"}
 
 
 def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
@@ -171,21 +158,36 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
     elif kind in ("conductor", "roughconductor"):
         out = _conductor(bsdf, props)
         if kind == "roughconductor":
-            out["roughness"] = _rough(bsdf, props)
-    elif kind == "dielectric":
+            out.update(_rough(bsdf, props))
+    elif kind in ("dielectric", "roughdielectric", "thindielectric"):
         _no(props, bsdf, "specular_reflectance", "specular_transmittance")
         ior = _relative_ior(props, bsdf, "bk7")
-        if not 1.0 <= ior <= 4.0:
-            raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range [1, 4] (the denser medium "
-                             "must be inside)")
-        return {"type": "dielectric", "ior": ior}
+        if not 1.0 < ior <= 4.0:
+            raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the denser medium "
+                             "must be inside; 1 is no interface)")
+        if kind != "roughdielectric":
+            return {"type": kind, "ior": ior}
+        rough = _rough(bsdf, props)
+        if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
+            raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least "
+                                                     f"rough-glass alpha {ROUGH_GLASS_MIN_ALPHA:g} (use a dielectric)")
+        return {"type": "roughdielectric", "ior": ior, **rough}
     elif kind == "plastic":
         _no(props, bsdf, "specular_reflectance")
         ior = _relative_ior(props, bsdf, "polypropylene")
-        out = {"type": "plastic", "ior": ior, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids)}
-        nonlinear = V.as_bool(props["nonlinear"]) if "nonlinear" in props else False
-        if not nonlinear:
-            out = _linear_plastic(out, bsdf)
+        out = {"type": "plastic", "ior": ior, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids),
+               "nonlinear": V.as_bool(props["nonlinear"]) if "nonlinear" in props else False}
+    elif kind == "roughplastic":
+        _no(props, bsdf, "specular_reflectance")
+        ior = _relative_ior(props, bsdf, "polypropylene")
+        if not 1.0 < ior <= 4.0:
+            raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the coat must be denser)")
+        rough = _rough(bsdf, props)
+        if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
+            raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least alpha "
+                                                     f"{ROUGH_GLASS_MIN_ALPHA:g} (use a plastic)")
+        out = {"type": "roughplastic", "ior": ior, **rough, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids),
+               "nonlinear": V.as_bool(props["nonlinear"]) if "nonlinear" in props else False}
     else:
         raise bsdf.error(f"not supported by mcpt (supported: {', '.join(SUPPORTED)})")
     out["two_sided"] = two_sided
