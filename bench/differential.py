@@ -5,7 +5,8 @@ compared with statistics that know each side's noise.
                                       [--list FILE] [--resolution WxH]
 
 ``--list FILE`` adds the scene paths a text file names (one a line; ``#`` starts a comment;
-relative paths are relative to FILE's folder), e.g. published scenes kept outside the repository.
+``$VARIABLES`` expanded; relative paths are relative to FILE's folder), e.g. published scenes kept
+outside the repository (bench/published-scenes.txt: ``$MCPT_PUBLISHED_SCENES/...``).
 ``--resolution WxH`` renders both sides at that film size (mcpt's ``--resolution``; Mitsuba's
 films resized through ``mi.parser``, bench/mitsuba_xml.py), for scenes whose size is no
 ``<default>``. A scene mcpt refuses is a row ``refused`` with mcpt's one-line message (the
@@ -34,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import subprocess
 import sys
 import tempfile
@@ -118,7 +120,7 @@ def read_list(path: Path) -> list[Path]:
     for line in path.read_text().splitlines():
         line = line.split("#", 1)[0].strip()
         if line:
-            p = Path(line).expanduser()
+            p = Path(os.path.expandvars(line)).expanduser()
             out.append((p if p.is_absolute() else path.parent / p).resolve())
     return out
 
