@@ -15,6 +15,10 @@
 #include "normal_map.glsl"
 #include "bvh.glsl"
 #include "materials.glsl"
+#if MCPT_MEDIUM
+// issue #25: shadow rays cross the scene's medium (medium_tr)
+#include "medium.glsl"
+#endif
 
 // Entry kinds (mcpt/shading/lights.py KIND_*, mcpt/shading/light_punctual.py KIND_OF).
 #define LIGHT_AREA 0u
@@ -195,6 +199,9 @@ void next_event(inout Path P, Material m, vec3 ns, vec3 ng, vec3 wo, vec3 xo, in
             float w = 1.0;
 #if MCPT_MIS
             if (!ls.delta) w = power_heuristic(ls.pdf, pdf_b);
+#endif
+#if MCPT_MEDIUM
+            fc *= medium_tr(ls.dist);  // glsl/medium.glsl: the fog between xo and the light
 #endif
             P.L += P.beta * fc * light_radiance(ls) * (w / ls.pdf);
         }

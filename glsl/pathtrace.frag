@@ -12,6 +12,10 @@
 #include "path_state.glsl"
 #include "lights.glsl"
 #include "roulette.glsl"
+#if MCPT_MEDIUM
+// issue #25: the scene's participating medium
+#include "medium_scatter.glsl"
+#endif
 #if MCPT_AOV
 #include "aov.glsl"
 #endif
@@ -59,7 +63,12 @@ layout(location = 2) out vec4 o_aov_b;
 bool path_step(inout Path P) {
     Hit h;
     Ray ray = P.ray;
-    if (!trace_closest(ray, h)) {
+    bool found = trace_closest(ray, h);
+#if MCPT_MEDIUM
+    int event = medium_event(P, found, h);  // glsl/medium_scatter.glsl
+    if (event != MEDIUM_PASS) return event == MEDIUM_SCATTERED;
+#endif
+    if (!found) {
 #if MCPT_ALPHA
         if (P.k == 1) {  // transparent film: the camera ray sees nothing, not even the sky
             g_camera_escaped = true;

@@ -28,6 +28,7 @@ from ..scene.animation import camera_moves
 from ..shading import microfacet, thindielectric
 from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
+from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
 from ..shapes.geometry import shared_vertices
@@ -41,17 +42,10 @@ from .limits import (  # noqa: F401 (re-exported: the names callers know feature
     needs_continuation,
     vertex_tables,
 )
-
-# Where the numbers come from (mcpt/shading/sampler.py, which defines the layout once): "sobol"
-# padded Owen-scrambled Sobol' computed in the shader (default: converges faster, no per-pass
-# upload), "independent" PCG64 from the host.
-SAMPLERS = ("sobol", "independent")
+from .options import SAMPLERS, SAMPLING_MODES, Limits, Options, Switches  # noqa: F401 (re-exported)
 
 # Below this many triangles a linear loop beats BVH traversal (measured: bench/, issue #4).
 BVH_MIN_TRIANGLES = 64
-
-# The estimators of Switches.sampling: MIS, and the two it combines (to check it against).
-SAMPLING_MODES = ("mis", "nee", "bsdf")
 
 # Samples per pixel one draw takes with the sobol sampler (path regeneration, glsl/pathtrace.frag):
 # lanes whose path ended start the next one instead of idling, and an 8-lane group waits only once
@@ -110,6 +104,8 @@ class Uses:
     pixel_filter: int = 0           # 0 box, 1 tent, 2 Gaussian: filter importance sampling (pixel_filter.py)
     thin_lens: bool = False         # depth of field: a point on the lens per sample (2 more dims)
     orthographic: bool = False      # parallel camera rays
+    medium: bool = False            # issue #25: some participating medium (mcpt/shading/medium.py)
+    interior_media: bool = False    # issue #25: some dielectric bounds an interior medium
     tri_const: int = 0              # > 0: no BVH, the brute-force loop written out for this many
     tri_first: int = 0              # with tri_const: the first of them (BVH: the large tail)
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
@@ -124,7 +120,8 @@ class Uses:
             directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,
-            separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True)
+            separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True,
+            medium=True, interior_media=True)
 
     @property
     def delta(self) -> bool:
@@ -154,50 +151,6 @@ class Uses:
         if self.bvh and (self.bvh_dense or not self.bvh_start):
             return 0
         return self.tri_const
-
-
-@dataclass(frozen=True)
-class Options:
-    """What the render is asked for (the scene's render block and the command line)."""
-
-    bounces: int                    # maximum scattering events (0: emitters only)
-    sampler: str = "sobol"          # "sobol" or "independent" (SAMPLERS)
-    clamp: bool = False             # biased firefly clamp, off unless asked for
-    variance: bool = False          # also accumulate squares (per-pixel variance: --aov variance)
-    alpha: bool = False             # transparent film: coverage in the squares target's alpha (needs variance)
-    aov: bool = False               # albedo, normal, depth targets (glsl/aov.glsl, --aov, --denoise)
-
-    def __post_init__(self):
-        if self.sampler not in SAMPLERS:
-            raise ValueError(f"sampler must be one of {SAMPLERS}, got {self.sampler!r}")
-
-
-@dataclass(frozen=True)
-class Limits:
-    """What the driver limits (loop_limit_for) and what that means for this scene's paths."""
-
-    loop_limit: int = 0             # the driver's loop-iteration limit (llvmpipe 65535); 0: none
-    long_paths: bool = True         # a path may outrun one draw's share of it (needs_continuation)
-
-
-@dataclass(frozen=True)
-class Switches:
-    """Comparison and debugging switches; the defaults are what a user renders with.
-
-    ``sampling`` (all unbiased; the tests and the stability suite check them against one another):
-    ``"mis"`` light sampling and BSDF sampling combined by the power heuristic; ``"nee"`` light
-    sampling only at non-specular vertices (emitters hit by a BSDF-sampled ray count only after a
-    specular bounce or from the camera); ``"bsdf"`` no light sampling, emission counts when hit."""
-
-    sampling: str = "mis"           # the estimator: "mis", "nee" or "bsdf" (SAMPLING_MODES)
-    russian_roulette: bool = True   # off: paths end at the bounce limit only (from RR_START on)
-    counters: bool = False          # count traversal work per ray (bench/counters.py)
-    continuation: bool = True       # off: never continue long paths in further draws
-    uber: bool = False              # compile every optional code path (Features.everything)
-
-    def __post_init__(self):
-        if self.sampling not in SAMPLING_MODES:
-            raise ValueError(f"sampling must be one of {SAMPLING_MODES}, got {self.sampling!r}")
 
 
 _GROUPS = {"uses": Uses, "options": Options, "limits": Limits, "switches": Switches}
@@ -263,12 +216,15 @@ class Features:
         return self.compiled.lights and self.bounces >= 1 and self.switches.sampling != "bsdf"
 
     mis = property(lambda self: self.nee and self.switches.sampling == "mis")
+    # issue #25: light-directed distances along medium segments (mcpt/shading/medium.py)
+    equiangular = property(lambda self: equiangular_used(self.compiled, self.nee, self.switches.equiangular))
     rr = property(lambda self: self.switches.russian_roulette and self.bounces > RR_START)
 
     @property
     def random_dims(self) -> int:
         """Random numbers per pixel per pass: the camera jitter plus each bounce's share."""
-        return dims_for(self.bounces, self.compiled.thin_lens)
+        return (dims_for(self.bounces, self.compiled.thin_lens)
+                + medium_dims(self.bounces, self.compiled.medium, self.equiangular))
 
     @property
     def continues(self) -> bool:
@@ -339,6 +295,10 @@ class Features:
             "MCPT_FILTER": u.pixel_filter,
             "MCPT_THIN_LENS": b(u.thin_lens),
             "MCPT_ORTHO": b(u.orthographic),
+            "MCPT_MEDIUM": b(u.medium),
+            "MCPT_MEDIUM_INTERIOR": b(u.medium and u.interior_media),
+            "MCPT_MEDIUM_EQUIANGULAR": b(self.equiangular),
+            "MCPT_DIM_MEDIUM": dims_for(o.bounces, u.thin_lens),  # after the bounces' (and lens') numbers
             "MCPT_CLAMP": b(o.clamp),
             "MCPT_VARIANCE": b(o.variance),
             "MCPT_ALPHA": b(o.alpha and o.variance),
@@ -363,7 +323,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            sampling: str = "mis", russian_roulette: bool = True,
            bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False, alpha: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
-           sampler: str = "sobol", continuation: bool = True, lights: dict | None = None) -> Features:
+           sampler: str = "sobol", continuation: bool = True, lights: dict | None = None,
+           medium: bool = False, interior_media: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``sampling``, ``russian_roulette``, ``counters``, ``continuation``: :class:`Switches`;
@@ -384,7 +345,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         microfacet=has("conductor") and rough, dielectric=has("dielectric"),
         absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,
         smooth_normals=smooth_normals, fresnel_complex=has("conductor") and fresnel_complex,
-        one_sided=one_sided, normal_maps=normal_maps, opacity=opacity,
+        one_sided=one_sided, normal_maps=normal_maps, opacity=opacity, medium=medium,
+        interior_media=interior_media,
         # what the render is asked for; what the driver limits; the switches
         bounces=bounces, sampler=sampler, clamp=clamp, variance=variance or alpha, aov=aov, alpha=alpha,
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
@@ -404,7 +366,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         rough=mt.rough(ids), absorption=mt.absorbing(ids), textures=mt.textured(ids),
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids),
-        opacity=mt.cut_out(ids), **{"bvh_dense": world.bvh.dense, **flags})
+        opacity=mt.cut_out(ids), **medium_uses(world), **{"bvh_dense": world.bvh.dense, **flags})
     f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids), **camera_uses(world.scene.camera))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:

@@ -13,6 +13,7 @@ reads it:
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
     camera     mcpt/shading/camera.py    <-> glsl/camera.glsl (uniforms)
+    medium     mcpt/shading/medium.py    <-> glsl/medium.glsl (uniforms; issue #25)
 
 The integrator's other pieces have host twins that pack no array (a define or a layout only):
 
@@ -33,6 +34,7 @@ from ..shading.camera import camera_uniforms
 from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
+from ..shading.medium import medium_uniforms
 from ..shading.normal_map import pack_normal_maps, pack_tangents
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
@@ -88,6 +90,8 @@ def pack(world: World, features: Features) -> Packed:
     if features.compiled.environment:
         uniforms.update(env_uniforms(world.scene.environment, world.lights.envmap,
                                      world.lights.env_pmf if features.nee else 0.0))
+    if features.compiled.medium:
+        uniforms.update(medium_uniforms(world, features.compiled.interior_media))
     if features.compiled.envmap and world.lights.envmap is not None:
         buffers.update(world.lights.envmap.pack())
     per_item = dict(ITEMS, materials=(features.material_texels, "materials"))

@@ -20,6 +20,7 @@ from ..shading.metals import METALS
 from ..shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from .diagnostics import FieldError
 from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
+from .medium import Medium
 from .textures import (
     BumpMap,
     CheckerboardTexture,
@@ -114,7 +115,7 @@ MATERIAL_KEYS = {
     "diffuse": ("albedo", "albedo_texture", "two_sided"),
     "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
                   "specular_reflectance", "two_sided", "distribution", "masking"),
-    "dielectric": ("ior", "absorption"),
+    "dielectric": ("ior", "absorption", "interior"),
     "plastic": ("albedo", "albedo_texture", "ior", "nonlinear", "two_sided"),
     "roughdielectric": ("ior", "roughness", "distribution", "masking"),
     "thindielectric": ("ior",),
@@ -122,7 +123,7 @@ MATERIAL_KEYS = {
                      "two_sided"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
-             "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear")
+             "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior")
 
 
 class Material(StrictModel):
@@ -182,6 +183,8 @@ class Material(StrictModel):
     """Dielectric, plastic: index of refraction (the outside is air, index 1)."""
     absorption: Absorption | None = None
     """Dielectric: Beer-Lambert absorption of light travelling inside (None: clear)."""
+    interior: Medium | None = None
+    """Dielectric: a participating medium filling its (closed) meshes (issue #25, mcpt/scene/medium.py)."""
     fresnel: Literal["schlick", "none", "conductor"] | None = None
     """Conductor: the Fresnel factor, ``schlick`` (F0 = albedo), ``none`` (F = 1) or ``conductor``
     (complex index ``eta``, ``k`` or ``metal``). Default: ``conductor`` when ``eta``/``k``/``metal``
@@ -241,6 +244,8 @@ class Material(StrictModel):
                 )
         if self.albedo is not None and self.albedo_texture is not None:
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
+        if self.absorption is not None and self.interior is not None:  # issue #25
+            raise FieldError(("interior",), "give absorption or interior (its sigma_a absorbs), not both")
         if self.opacity is not None and self.emission is not None and max(self.emission) > 0:
             raise FieldError(("opacity",), "an emitter cannot be cut out (light sampling needs its area)")
         if self.opacity_cutoff is not None and self.opacity is None:
@@ -249,9 +254,14 @@ class Material(StrictModel):
             raise FieldError(("bump_map",), "give normal_map or bump_map, not both")
         if self.type == "conductor":
             self._check_fresnel()
-        if self.type in ("dielectric", "roughdielectric", "thindielectric", "roughplastic") and self.ior == 1.0:
+        # ior 1 is no interface; a smooth dielectric holding an interior medium may have it: the
+        # medium's index-matched boundary (Mitsuba's null BSDF around a medium, issue #25).
+        matched = self.type == "dielectric" and self.interior is not None
+        if self.type in ("dielectric", "roughdielectric", "thindielectric", "roughplastic") and self.ior == 1.0 \
+                and not matched:
             raise FieldError(("ior",), "ior 1 is no interface (the same index on both sides: the "
-                                       "surface would be invisible); a dielectric needs ior > 1")
+                                       "surface would be invisible); a dielectric needs ior > 1 "
+                                       "(or an interior medium, whose boundary it then is)")
         if self.type in ("roughdielectric", "roughplastic") and self.roughness < ROUGH_GLASS_MIN_ALPHA:
             raise FieldError(("roughness",), f"a {self.type} needs roughness (alpha) in "
                                              f"[{ROUGH_GLASS_MIN_ALPHA:g}, 1], got {self.roughness:g} "

@@ -48,6 +48,7 @@ from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent
 from .lens import Lens
 from .lights import Environment, Light
 from .materials import Material
+from .medium import Medium
 from .pixel_filter import FilterField, PixelFilter
 from .transform import Transform
 
@@ -227,6 +228,8 @@ class Scene(StrictModel):
     """Point, spot and directional lights (issue #20, mcpt/scene/lights.py), besides emissive meshes."""
     environment: Environment | None = None
     """The light of rays that leave the scene (issue #20); None: black."""
+    medium: Medium | None = None
+    """A homogeneous participating medium filling the scene (issue #25, mcpt/scene/medium.py); None: vacuum."""
     animation: Animation | None = None
     """Keyframes of the camera and mesh transforms (issue #26, mcpt/scene/animation.py)."""
 
@@ -303,6 +306,7 @@ class Scene(StrictModel):
             "meshes": self.meshes,
             "lights": self.lights,
             "environment": self.environment,
+            "medium": self.medium,
             "animation": self.animation,
         }
         source = self._source if self._source is not None else "<scene>"

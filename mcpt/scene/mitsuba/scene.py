@@ -20,13 +20,14 @@ from ..mapped import validated
 from ..model import Scene
 from . import bsdfs, camera
 from .emitters import emitter
+from .media import add_medium, scene_medium, shape_material
 from .shapes import ShapeOut, shape
 from .xmltree import Node, XmlError, deref, read_tree
 
 log = logging.getLogger("mcpt")
 
 #: Top-level objects mcpt maps, and those it reads only through references.
-TOP_LEVEL = ("sensor", "integrator", "shape", "bsdf", "texture", "emitter")
+TOP_LEVEL = ("sensor", "integrator", "shape", "bsdf", "texture", "emitter", "medium", "phase")
 #: Objects Mitsuba lets a scene declare at the top level with an ``id`` and place elsewhere by
 #: ``<ref id>``: an area emitter a shape refers to (Mitsuba's cbox-rgb.xml, variants_cbox_rgb.xml),
 #: a sampler or film a sensor refers to (its documentation's sampler_*.xml). Such a
@@ -107,13 +108,15 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     objects = [deref(c, tree.ids) for c in sensor.children if c.tag in ("film", "sampler", "ref")]
     cam, render = camera.sensor(sensor, objects)
     render["bounces"] = camera.integrator(integrator)
+    fog = scene_medium(sensor, shapes, integrator, tree.ids)  # issue #25: the camera's medium
     lines[("camera",)] = sensor.line
     lines[("render",)] = (integrator or sensor).line
     materials: dict[str, dict] = {}
     by_value: dict[str, str] = {}
     meshes = []
     for i, s in enumerate(shapes):
-        mat = dict(bsdfs.material(s.bsdf, tree.ids)) if s.bsdf is not None else dict(DEFAULT_MATERIAL)
+        mat = shape_material(s, fog, tree.ids, lambda s=s: (  # issue #25: media on shapes
+            dict(bsdfs.material(s.bsdf, tree.ids)) if s.bsdf is not None else dict(DEFAULT_MATERIAL)))
         if s.bsdf is None and s.radiance is not None:
             mat["albedo"] = [0.0, 0.0, 0.0]  # Mitsuba: an emitter without a BSDF reflects nothing
         if s.radiance is not None and any(s.radiance):
@@ -141,6 +144,7 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
         data["lights"] = lights
     if environment is not None:
         data["environment"] = environment
+    add_medium(data, lines, fog, tree.ids)
     return data, lines
 
 

@@ -10,7 +10,7 @@ shade with their true normals, meshes with vertex normals unless ``face_normals`
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,7 @@ class ShapeOut:
     bsdf: Node | None
     radiance: tuple[float, float, float] | None
     smooth: bool
+    media: dict = field(default_factory=dict)  # issue #25: "interior" / "exterior" -> <medium> node
 
 
 def _folded(kind: str, props: dict[str, Node], node: Node) -> np.ndarray:
@@ -107,14 +108,18 @@ def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeO
         raise node.error(f"the scene expands to more than {MAX_SHAPES} shapes")
     matrix = parent @ local
     bsdf = emitter = None
+    media = {}
     for child in node.children:
         target = deref(child, ids) if child.tag == "ref" else child
         if target.tag == "bsdf":
             bsdf = target
         elif target.tag == "emitter":
             emitter = target
+        elif target.tag == "medium" and child.get("name") in ("interior", "exterior"):  # issue #25
+            media[child.get("name")] = target
         elif target.tag in ("medium", "sensor"):
-            raise target.error("not supported by mcpt inside a shape (no media, no shape sensors)")
+            raise target.error("not supported by mcpt inside a shape (media: name=\"interior\" or "
+                               "\"exterior\"; no shape sensors)")
     radiance = None
     if emitter is not None:
         if emitter.get("type") != "area":
@@ -142,7 +147,7 @@ def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeO
     if flip:
         mesh["flip_normals"] = True
     mesh.update(_matrix_dict(matrix))
-    out.append(ShapeOut(node, mesh, bsdf, radiance, smooth))
+    out.append(ShapeOut(node, mesh, bsdf, radiance, smooth, media))
 
 
 def relative_paths(data: dict, folder: Path) -> dict:
