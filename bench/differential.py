@@ -2,6 +2,15 @@
 compared with statistics that know each side's noise.
 
     python -m mcpt.bench.differential SCENE.xml [SCENE.xml ...] --spp N [-D name=value] [--json F]
+                                      [--list FILE] [--resolution WxH]
+
+``--list FILE`` adds the scene paths a text file names (one a line; ``#`` starts a comment;
+``$VARIABLES`` expanded; relative paths are relative to FILE's folder), e.g. published scenes kept
+outside the repository (bench/published-scenes.txt: ``$MCPT_PUBLISHED_SCENES/...``).
+``--resolution WxH`` renders both sides at that film size (mcpt's ``--resolution``; Mitsuba's
+films resized through ``mi.parser``, bench/mitsuba_xml.py), for scenes whose size is no
+``<default>``. A scene mcpt refuses is a row ``refused`` with mcpt's one-line message (the
+harness checks it is one line); a scene Mitsuba fails on is a row ``peer failed``.
 
 mcpt renders through its CLI (``mcpt render SCENE.xml --aov variance``: the variance of each
 pixel's mean from its own samples); Mitsuba renders in the peer venv (bench/mitsuba_xml.py,
@@ -26,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import subprocess
 import sys
 import tempfile
@@ -39,14 +49,25 @@ ROOT = Path(__file__).resolve().parent.parent
 SCENES = Path(__file__).resolve().parent / "scenes-xml"
 
 
-def run_mcpt(scene: Path, spp: int, seed: int, defines: list[str], tmp: Path) -> dict:
+class Refused(Exception):
+    """mcpt refused the scene (exit 2) with the one located line this carries."""
+
+
+def run_mcpt(scene: Path, spp: int, seed: int, defines: list[str], tmp: Path,
+             resolution: str | None = None) -> dict:
     from mcpt.output.image import read_exr_channels
 
     out = tmp / "mcpt.exr"
     cmd = [sys.executable, "-m", "mcpt", "render", str(scene), "--spp", str(spp), "--seed", str(seed),
            "--aov", "variance", "-o", str(out), "--json", "--progress", "none",
-           *(x for d in defines for x in ("-D", d))]
+           *(x for d in defines for x in ("-D", d)),
+           *(("--resolution", resolution) if resolution else ())]
     res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode == 2:
+        lines = [ln for ln in res.stderr.splitlines() if ln.startswith("mcpt: error:")]
+        if len(lines) != 1:
+            raise RuntimeError(f"mcpt refused without one located line: {res.stderr.strip()[-600:]}")
+        raise Refused(lines[0].removeprefix("mcpt: error:").strip())
     if res.returncode != 0:
         raise RuntimeError(f"mcpt failed: {res.stderr.strip()[-600:]}")
     meta = json.loads(res.stdout)
@@ -57,11 +78,13 @@ def run_mcpt(scene: Path, spp: int, seed: int, defines: list[str], tmp: Path) ->
     return {"mean": mean, "var_mean": var, "seconds": meta["render_seconds"], "warnings": warnings}
 
 
-def run_mitsuba(scene: Path, spp: int, seed: int, defines: list[str], runs: int, tmp: Path) -> dict:
+def run_mitsuba(scene: Path, spp: int, seed: int, defines: list[str], runs: int, tmp: Path,
+                resolution: str | None = None) -> dict:
     out = tmp / "mitsuba.npz"
     cmd = [str(peer.python()), str(Path(__file__).with_name("mitsuba_xml.py")), str(scene), str(out),
            "--spp", str(spp), "--runs", str(runs), "--seed", str(seed), "--tool", str(peer.tool()),
-           *(x for d in defines for x in ("-D", d))]
+           *(x for d in defines for x in ("-D", d)),
+           *(("--resolution", resolution) if resolution else ())]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise RuntimeError(f"Mitsuba failed: {(res.stderr.strip() or res.stdout.strip())[-600:]}")
@@ -91,12 +114,53 @@ def compare(a: dict, b: dict, eps: float = 0.01) -> dict:
             "relmse_noise": float(np.mean(var / (ref * ref + eps)))}
 
 
+def read_list(path: Path) -> list[Path]:
+    """The scene paths ``path`` names: one a line, ``#`` comments, relative to its folder."""
+    out = []
+    for line in path.read_text().splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line:
+            p = Path(os.path.expandvars(line)).expanduser()
+            out.append((p if p.is_absolute() else path.parent / p).resolve())
+    return out
+
+
+def measure(scene: Path, a) -> dict:
+    """One scene's row: the figures, or ``status`` refused / peer failed with the one line why."""
+    row: dict = {"scene": str(scene), "spp": a.spp, "resolution": a.resolution}
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            m = run_mcpt(scene, a.spp, a.seed, a.defines, Path(tmp), a.resolution)
+        except Refused as exc:
+            return {**row, "status": "refused", "why": str(exc)}
+        try:
+            p = run_mitsuba(scene, a.spp, a.seed + 1, a.defines, a.runs, Path(tmp), a.resolution)
+        except RuntimeError as exc:
+            return {**row, "status": "peer failed", "why": str(exc).splitlines()[-1]}
+    return {**row, "status": "rendered", **compare(m, p), "seconds_mcpt": m["seconds"],
+            "seconds_mitsuba": p["seconds"], "mitsuba": p["version"], "warnings": m["warnings"]}
+
+
+def short(scene: Path, width: int = 34) -> str:
+    """The last path components of ``scene`` that fit ``width`` characters."""
+    parts, name = scene.parts, scene.name
+    for k in range(2, len(parts) + 1):
+        cand = "/".join(parts[-k:])
+        if len(cand) > width:
+            break
+        name = cand
+    return name
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="*", type=Path, help=f"XML scenes (default: every {SCENES}/*.xml)")
+    ap.add_argument("--list", type=Path, action="append", default=[], metavar="FILE",
+                    help="a text file of scene paths, one a line (# comments)")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--runs", type=int, default=4, help="Mitsuba renders whose spread gives its variance")
+    ap.add_argument("--resolution", default=None, metavar="WxH", help="both sides' film size")
     ap.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--json", type=Path, default=None, help="write the figures as JSON too")
     a = ap.parse_args(argv)
@@ -104,25 +168,27 @@ def main(argv=None) -> int:
     if not avail.ok:
         print(f"differential: Mitsuba unavailable: {avail.reason}", file=sys.stderr)
         return 2
-    scenes = a.scenes or sorted(SCENES.glob("*.xml"))
+    scenes = list(a.scenes) + [p for f in a.list for p in read_list(f)]
+    scenes = scenes or sorted(SCENES.glob("*.xml"))
     rows = []
-    print(f"{'scene':24s} {'mean mcpt':>10s} {'mean mts':>10s} {'z':>6s} {'|z|>3':>7s} "
+    print(f"{'scene':34s} {'mean mcpt':>10s} {'mean mts':>10s} {'z':>6s} {'|z|>3':>7s} "
           f"{'relMSE':>9s} {'noise':>9s} {'t mcpt':>7s} {'t mts':>7s}")
     for scene in scenes:
-        with tempfile.TemporaryDirectory() as tmp:
-            m = run_mcpt(scene, a.spp, a.seed, a.defines, Path(tmp))
-            p = run_mitsuba(scene, a.spp, a.seed + 1, a.defines, a.runs, Path(tmp))
-        row = {"scene": scene.name, "spp": a.spp, **compare(m, p), "seconds_mcpt": m["seconds"],
-               "seconds_mitsuba": p["seconds"], "mitsuba": p["version"], "warnings": m["warnings"]}
+        row = measure(scene, a)
         rows.append(row)
-        print(f"{scene.name:24s} {row['mean_mcpt']:10.4f} {row['mean_mitsuba']:10.4f} "
+        if row["status"] != "rendered":
+            print(f"{short(scene):34s} {row['status']}: {row['why']}")
+            continue
+        print(f"{short(scene):34s} {row['mean_mcpt']:10.4f} {row['mean_mitsuba']:10.4f} "
               f"{row['mean_z']:6.2f} {100 * row['pixel_z_gt3']:6.2f}% {row['relmse']:9.2e} "
               f"{row['relmse_noise']:9.2e} {row['seconds_mcpt']:7.2f} {row['seconds_mitsuba']:7.2f}")
-        for w in m["warnings"]:
+        for w in row["warnings"]:
             print(f"    {w}")
     if a.json is not None:
         a.json.write_text(json.dumps(rows, indent=2))
-    return 0 if all(abs(r["mean_z"]) < 3 for r in rows) else 1
+    rendered = [r for r in rows if r["status"] == "rendered"]
+    failed = [r for r in rows if r["status"] == "peer failed"]
+    return 0 if not failed and all(abs(r["mean_z"]) < 3 for r in rendered) else 1
 
 
 if __name__ == "__main__":

@@ -1,8 +1,11 @@
 """Peer side of the differential harness: run BY THE PEER VENV'S PYTHON (it imports mitsuba).
 
     python bench/mitsuba_xml.py SCENE.xml OUT.npz --spp N --runs K --seed S [-D name=value ...]
+                                [--resolution WxH]
 
-Loads the scene with ``mi.load_file(path, **defines)`` and renders it ``K`` times with seeds
+Loads the scene with ``mi.load_file(path, **defines)`` (with ``--resolution``: through
+``mi.parser``, every ``hdrfilm``'s width and height replaced before instantiation, so a published
+scene whose film size is no ``<default>`` renders small; the file is not touched) and renders it ``K`` times with seeds
 ``S .. S+K-1`` at ``N/K`` samples each; writes the mean image and the variance of that mean
 (from the spread of the K runs) to ``OUT.npz`` and prints one JSON line: timings and settings.
 Not part of mcpt: bench/differential.py runs it as a subprocess (as bench/mitsuba.py does with
@@ -21,6 +24,32 @@ from pathlib import Path
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
 
+def load(mi, path: str, params: dict[str, str], resolution: str | None):
+    """``mi.load_file``, or with ``resolution`` the same through ``mi.parser`` with the films resized."""
+    if resolution is None:
+        return mi.load_file(path, **params)
+    width, height = (int(v) for v in resolution.lower().split("x"))
+    # What mi.load_file does (mitsuba3 src/core/python/parser.cpp): the scene's folder first in
+    # the file resolver, equivalent objects and meshes merged; then the films resized.
+    cfg = mi.parser.ParserConfig(mi.variant())
+    cfg.merge_equivalent = cfg.merge_meshes = True
+    backup = mi.file_resolver()
+    resolver = mi.FileResolver(backup)
+    resolver.prepend(str(Path(path).resolve().parent))
+    mi.set_file_resolver(resolver)
+    try:
+        state = mi.parser.parse_file(cfg, path, **params)
+        for node in state.nodes:
+            if node.type == mi.ObjectType.Film:
+                node.props["width"] = width
+                node.props["height"] = height
+        mi.parser.transform_all(cfg, state)
+        objects = mi.parser.instantiate(cfg, state)
+    finally:
+        mi.set_file_resolver(backup)
+    return objects[0] if isinstance(objects, list) else objects
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("scene")
@@ -31,6 +60,7 @@ def main() -> None:
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--tool", required=True, help="../shared/tools/peer_mitsuba.py (libLLVM finder)")
     ap.add_argument("-D", dest="defines", action="append", default=[])
+    ap.add_argument("--resolution", default=None, help="WxH: override every film's size")
     a = ap.parse_args()
     sys.path.insert(0, str(Path(a.tool).parent))
     import numpy as np
@@ -39,7 +69,7 @@ def main() -> None:
     mi, _dr, t_import = _import_mitsuba(a.variant)
     params = dict(d.split("=", 1) for d in a.defines)
     t0 = time.perf_counter()
-    scene = mi.load_file(a.scene, **params)
+    scene = load(mi, a.scene, params, a.resolution)
     t_load = time.perf_counter() - t0
     per_run = max(1, a.spp // a.runs)
     images, seconds = [], 0.0

@@ -253,7 +253,7 @@ def _merge(raw: RawMesh, need_normals: bool, need_uvs: bool):
 
     normal_arr = None
     if need_normals:
-        # GenSmoothNormals fills every sub-mesh; zeros are only a fallback for odd importers.
+        # Zeros where a part has none: unit_vertex_normals generates them (angle-weighted, as Mitsuba).
         normal_arr = np.concatenate([n if n is not None else np.zeros((len(v), 3)) for n, v in zip(normals, verts)])
     uv_arr = None
     if need_uvs and any(u is not None for u in uvs):

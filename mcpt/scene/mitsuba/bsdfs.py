@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import logging
 
-from ...shading.metals import METALS
 from ...shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from . import values as V
+from .conductors import MITSUBA_CONDUCTORS
 from .textures import bump_map, mask, normal_map, texture
 from .xmltree import Node, deref
 
@@ -75,9 +75,18 @@ def _albedo(bsdf: Node, props, key, default, ids) -> dict:
 
 
 def _no(props: dict[str, Node], bsdf: Node, *keys: str) -> None:
+    """Refuse ``keys`` unless given as Mitsuba's own default of 1 (``specular_reflectance`` /
+    ``specular_transmittance``: published scenes spell it out, e.g. veach_mis.xml's plates)."""
     for key in keys:
-        if key in props:
+        if key in props and not _is_default_one(props[key]):
             raise props[key].error(f"{bsdf.get('type')} parameter {key} is not supported by mcpt")
+
+
+def _is_default_one(node: Node) -> bool:
+    """A ``specular_*`` value equal to Mitsuba's default 1 (a plain value, not a texture)."""
+    if node.tag not in ("rgb", "float", "spectrum"):
+        return False
+    return all(c == 1.0 for c in V.as_color(node))
 
 
 def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
@@ -92,11 +101,13 @@ def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
         name = V.as_string(props["material"]) if "material" in props else "none"
         if name == "none":
             out["fresnel"] = "none"
-        elif name in METALS:
-            out["metal"] = name
+        elif name in MITSUBA_CONDUCTORS:
+            # Mitsuba's own RGB reduction of the preset (conductors.py), not mcpt's metal: presets.
+            eta, k = MITSUBA_CONDUCTORS[name]
+            out.update(eta=list(eta), k=list(k), fresnel="conductor")
         else:
-            raise props["material"].error(f"conductor material {name!r} is not among mcpt's measured "
-                                          f"metals (none, {', '.join(METALS)}); give eta and k as <rgb>")
+            raise props["material"].error(f"conductor material {name!r} is not among Mitsuba 3's "
+                                          f"presets (none, {', '.join(MITSUBA_CONDUCTORS)})")
     if "specular_reflectance" in props:
         out["specular_reflectance"] = list(V.as_color(props["specular_reflectance"]))
     return out

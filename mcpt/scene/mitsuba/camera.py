@@ -169,6 +169,14 @@ def integrator(node: Node | None) -> int:
     if "hide_emitters" in props and V.as_bool(props["hide_emitters"]):
         raise props["hide_emitters"].error("hide_emitters is not supported by mcpt (emitters are visible)")
     if kind == "direct":
+        key = "emitter_samples" if "emitter_samples" in props else "shading_samples"
+        if key in props and V.as_int(props[key]) > 1:
+            # mitsuba3 src/integrators/direct.cpp: a delta emitter's sample gets MIS weight 1,
+            # not 1/emitter_samples, so each of the N samples counts fully (hello.xml: 4x).
+            log.warning("%s:%d: %s: %s=%d: Mitsuba 3 counts each sample of a point, spot or "
+                        "directional light fully (direct.cpp), so its image of them is %d times "
+                        "brighter; mcpt renders the expected image", node.file, node.line,
+                        node.label, key, V.as_int(props[key]), V.as_int(props[key]))
         return 1
     if kind in SAME_IMAGE:
         log.warning("%s:%d: %s: rendered with mcpt's path tracer (the same expected image)",

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import values as V
-from .xmltree import Node
+from .xmltree import Node, resolve_file
 
 _KEYS = {"point": ("position", "intensity", "to_world"),
          "spot": ("intensity", "cutoff_angle", "beam_width", "to_world"),
@@ -46,7 +46,7 @@ def emitter(node: Node) -> tuple[str, dict]:
     if kind == "envmap":
         if "filename" not in props:
             raise node.error('missing <string name="filename">')
-        env = {"file": str((node.file.parent / V.as_string(props["filename"])).resolve())}
+        env = {"file": str(resolve_file(node, V.as_string(props["filename"])))}
         if "scale" in props:
             env["scale"] = V.as_float(props["scale"])
         if "to_world" in props:

@@ -22,12 +22,18 @@ from . import bsdfs, camera
 from .emitters import emitter
 from .media import add_medium, scene_medium, shape_material
 from .shapes import ShapeOut, shape
-from .xmltree import XmlError, deref, read_tree
+from .xmltree import Node, XmlError, deref, read_tree
 
 log = logging.getLogger("mcpt")
 
 #: Top-level objects mcpt maps, and those it reads only through references.
 TOP_LEVEL = ("sensor", "integrator", "shape", "bsdf", "texture", "emitter", "medium", "phase")
+#: Objects Mitsuba lets a scene declare at the top level with an ``id`` and place elsewhere by
+#: ``<ref id>``: an area emitter a shape refers to (Mitsuba's cbox-rgb.xml, variants_cbox_rgb.xml),
+#: a sampler or film a sensor refers to (its documentation's sampler_*.xml). Such a
+#: declaration is not an object of the scene itself; where it is placed, it is read (and refused
+#: if unsupported) as if written there.
+DECLARABLE = ("emitter", "sampler", "film")
 #: Mitsuba's material when a shape names none: a one-sided diffuse of reflectance 0.5 (0 when the
 #: shape emits: Mitsuba's Shape constructor).
 DEFAULT_MATERIAL = {"type": "diffuse", "albedo": [0.5, 0.5, 0.5], "two_sided": False}
@@ -48,6 +54,18 @@ def split_defines(overrides, path) -> tuple[dict[str, str], list[str]]:
     return params, keys
 
 
+def _referenced_ids(root: Node) -> set[str]:
+    """Every id a ``<ref id>`` anywhere in the tree names."""
+    out: set[str] = set()
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        if node.tag == "ref" and "id" in node.attrs:
+            out.add(node.attrs["id"])
+        stack.extend(node.children)
+    return out
+
+
 def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple[dict, dict]:
     """(YAML-schema data, key path -> XML line) of the Mitsuba scene at ``path``."""
     tree = read_tree(path, defines)
@@ -57,7 +75,10 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     shapes: list[ShapeOut] = []
     lights: list[dict] = []
     environment = None
+    referenced = _referenced_ids(tree.root)
     for node in tree.root.children:
+        if node.tag in DECLARABLE and node.get("id") in referenced:
+            continue  # a declaration: it takes effect where a <ref> places it (a shape, a sensor)
         if node.tag not in TOP_LEVEL:
             if node.tag in ("ref",):
                 continue

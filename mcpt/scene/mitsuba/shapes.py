@@ -17,7 +17,7 @@ import numpy as np
 
 from ...shapes.primitives import KINDS
 from . import values as V
-from .xmltree import Node, deref
+from .xmltree import Node, deref, resolve_file
 
 FILE_SHAPES = ("obj", "ply", "serialized")
 SUPPORTED = FILE_SHAPES + KINDS + ("shapegroup", "instance")
@@ -131,7 +131,7 @@ def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeO
     if kind in FILE_SHAPES:
         if "filename" not in props:
             raise node.error("missing <string name=\"filename\">")
-        path = (node.file.parent / V.as_string(props["filename"])).resolve()
+        path = resolve_file(node, V.as_string(props["filename"]))
         if not path.is_file():
             raise props["filename"].error(f"mesh file not found: {path}")
         mesh["file"] = str(path)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..fields import TEXTURE_SUFFIXES
 from . import values as V
-from .xmltree import Node, deref
+from .xmltree import Node, deref, resolve_file
 
 SUPPORTED = ("bitmap", "checkerboard")
 
@@ -147,7 +147,7 @@ def texture(node: Node, raw: bool = False) -> dict:
         return _checkerboard(node, props)
     if "filename" not in props:
         raise node.error("a bitmap needs a filename (in-memory bitmaps cannot come from a file)")
-    path = (node.file.parent / V.as_string(props["filename"])).resolve()
+    path = resolve_file(node, V.as_string(props["filename"]))
     if path.suffix.lower() not in TEXTURE_SUFFIXES:
         raise props["filename"].error(f"{path.suffix or '(none)'} images are not supported by mcpt "
                                       f"(8-bit formats: {', '.join(TEXTURE_SUFFIXES)})")

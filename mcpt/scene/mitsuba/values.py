@@ -101,8 +101,11 @@ def spectrum(node: Node) -> tuple[float, float, float]:
 
 
 def _rotation(axis: np.ndarray, angle_deg: float) -> np.ndarray:
-    """Rodrigues' rotation by ``angle_deg`` about ``axis`` (right-handed), 4x4."""
-    a = axis / np.linalg.norm(axis)
+    """Rodrigues' formula c I + s [a]x + (1 - c) a a^T for ``angle_deg`` about ``axis`` (right-handed),
+    4x4, with ``axis`` AS GIVEN: Mitsuba 3's ``Transform4f::rotate`` (include/mitsuba/core/transform.h)
+    does not normalise it, so a non-unit axis also scales (checked on Mitsuba 3.9.1:
+    rotate([0, 0, 2], 90) maps (1, 0, 0) to (0, 2, 0)); Mitsuba's own hello.xml rotates about (0, 1, 1)."""
+    a = np.asarray(axis, np.float64)
     t = math.radians(angle_deg)
     c, s = math.cos(t), math.sin(t)
     x, y, z = a
@@ -150,6 +153,10 @@ def _operation(op: Node) -> np.ndarray:
         axis = np.array(_xyz(op, 0.0))
         if not axis.any():
             raise op.error("rotate needs a nonzero axis (x, y, z or value)")
+        if abs(float(np.linalg.norm(axis)) - 1.0) > 1e-6:
+            log.warning("%s:%d: %s: axis of length %.4g: Mitsuba (and mcpt, to match it) use it "
+                        "unnormalised, which scales as well as rotates", op.file, op.line, op.label,
+                        float(np.linalg.norm(axis)))
         out = _rotation(axis, floats(op, op.need("angle"), 1, "angle")[0])
     elif op.tag == "matrix":
         v = floats(op, op.need("value"))

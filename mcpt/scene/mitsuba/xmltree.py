@@ -4,7 +4,9 @@
 tag), expands ``<include filename>`` (cycle-checked), substitutes ``$name`` in every attribute
 from ``<default name value>`` and the ``-D name=value`` defines (a define wins over a default, as
 in Mitsuba's ``load_file(path, **params)``), and indexes every element with an ``id`` so
-``<ref id>`` can be followed. Every error is one :class:`XmlError` line
+``<ref id>`` can be followed. ``<path value>`` adds a search folder as in Mitsuba's file resolver
+(:func:`resolve_file`), so published scenes that keep their meshes in a shared folder
+(``<path value="../../common"/>`` in Mitsuba's documentation scenes) load. Every error is one :class:`XmlError` line
 ``file.xml:LINE: <tag type="...">: what is wrong``.
 """
 
@@ -40,6 +42,10 @@ class Node:
     file: Path
     line: int
     children: list[Node] = field(default_factory=list)
+    #: The scene's search folders (``<path>`` folders, newest first, then the scene file's folder):
+    #: one list shared by every node of a tree, so a later ``<path>`` counts everywhere, as in
+    #: Mitsuba, which resolves file names when it instantiates plugins, after parsing.
+    search: list[Path] = field(default_factory=list, repr=False)
 
     @property
     def label(self) -> str:
@@ -145,6 +151,7 @@ def read_tree(path: str | Path, defines: dict[str, str] | None = None) -> Tree:
         raise root.error(f"version {version!r}: mcpt reads Mitsuba 3 (and 2) scene files; "
                          "upgrade a Mitsuba 0.6 scene with Mitsuba 2's converter")
     ids: dict[str, Node] = {}
+    root.search = [path.resolve().parent]
     root.children = _expand(root, params, ids, [path.resolve()])
     return Tree(root, ids, params, set(defines))
 
@@ -158,6 +165,10 @@ def _expand(parent: Node, params: dict[str, str], ids: dict[str, Node], chain: l
             params.setdefault(name, value)  # a define (or an earlier default) wins
             continue
         _substitute(child, params)
+        child.search = parent.search
+        if child.tag == "path":
+            _add_path(child, parent)
+            continue
         if child.tag == "include":
             out.extend(_include(child, params, ids, chain))
             continue
@@ -172,8 +183,33 @@ def _expand(parent: Node, params: dict[str, str], ids: dict[str, Node], chain: l
     return out
 
 
+def resolve_file(node: Node, name: str) -> Path:
+    """The file ``name`` that ``node`` refers to, found as Mitsuba 3's FileResolver finds it
+    (mitsuba3 src/core/parser.cpp, ``<path>`` and ``<include>``): in the ``<path>`` folders,
+    newest first, then beside the file that names it, then beside the scene file. Not found
+    anywhere: the path beside the naming file (so the caller's error names where it looked first).
+    Mitsuba also tries the working directory last; mcpt does not (a render would depend on it)."""
+    here = node.file.parent / name
+    for folder in [*node.search[:-1], node.file.parent, *node.search[-1:]]:
+        candidate = folder / name
+        if candidate.exists():
+            return candidate.resolve()
+    return here.resolve()
+
+
+def _add_path(node: Node, parent: Node) -> None:
+    """``<path value>``: a search folder, relative to its file's folder or else found by the
+    resolver, prepended as Mitsuba prepends it; only a child of the root, as Mitsuba requires."""
+    if parent.tag != "scene":
+        raise node.error("<path> can only be a child of <scene>")
+    folder = resolve_file(node, node.need("value"))
+    if not folder.is_dir():
+        raise node.error(f"folder not found: {folder}")
+    node.search.insert(0, folder)
+
+
 def _include(node: Node, params: dict[str, str], ids: dict[str, Node], chain: list[Path]) -> list[Node]:
-    target = (node.file.parent / node.need("filename")).resolve()
+    target = resolve_file(node, node.need("filename"))
     if target in chain:
         cycle = " -> ".join(p.name for p in chain[chain.index(target):] + [target])
         raise node.error(f"include cycle: {cycle}")
@@ -184,6 +220,7 @@ def _include(node: Node, params: dict[str, str], ids: dict[str, Node], chain: li
     sub = _parse_file(target)
     if sub.tag != "scene":
         raise sub.error("an included file's root element must be <scene>")
+    sub.search = node.search
     return _expand(sub, params, ids, chain + [target])
 
 
