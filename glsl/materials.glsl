@@ -23,6 +23,7 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 #define MAT_PLASTIC 3
 // 4: MAT_ROUGH_DIELECTRIC (bsdf_roughdielectric.glsl), 5: MAT_THIN_DIELECTRIC (bsdf_thindielectric.glsl),
 // 6: MAT_ROUGH_PLASTIC (bsdf_roughplastic.glsl, whose table is the last 16 texels of its block)
+// 7: MAT_METALROUGH (bsdf_metalrough.glsl: glTF's metal-rough; metallic in texel 3.x)
 #define MAT_FLAG_SMOOTH 1u
 #define MAT_FLAG_ONE_SIDED 8u   // bits 1-2: the conductor's Fresnel mode (bsdf_conductor.glsl)
 // bits 4-5: the microfacet distribution and masking term (bsdf_microfacet.glsl)
@@ -85,7 +86,7 @@ struct BsdfSample {
 };
 
 // Dispatch: one #include per BSDF file.
-#if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC || MCPT_MAT_ROUGH_PLASTIC
+#if MCPT_MAT_DIFFUSE || MCPT_MAT_PLASTIC || MCPT_MAT_ROUGH_PLASTIC || MCPT_MAT_METALROUGH
 #include "bsdf_diffuse.glsl"
 #endif
 #if MCPT_MICROFACET
@@ -115,6 +116,9 @@ struct BsdfSample {
 #endif
 #if MCPT_MAT_ROUGH_PLASTIC
 #include "bsdf_roughplastic.glsl"
+#endif
+#if MCPT_MAT_METALROUGH
+#include "bsdf_metalrough.glsl"
 #endif
 
 // The material as seen from the side the path arrives on (`front`: the outside). A rough
@@ -176,6 +180,9 @@ vec3 bsdf_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
 #if MCPT_MAT_ROUGH_PLASTIC
     if (m.type == MAT_ROUGH_PLASTIC) return roughplastic_eval(m, n, wo, wi, pdf);
 #endif
+#if MCPT_MAT_METALROUGH
+    if (m.type == MAT_METALROUGH) return metalrough_eval(m, n, wo, wi, pdf);
+#endif
 #if MCPT_MAT_DIELECTRIC
     if (m.type == MAT_DIELECTRIC) { pdf = 0.0; return vec3(0.0); }
 #endif
@@ -218,6 +225,9 @@ bool bsdf_sample(Material m, vec3 n, vec3 wo, bool front, vec3 u, out BsdfSample
 #endif
 #if MCPT_MAT_ROUGH_PLASTIC
     if (m.type == MAT_ROUGH_PLASTIC) return roughplastic_sample(m, n, wo, u.xy, s);
+#endif
+#if MCPT_MAT_METALROUGH
+    if (m.type == MAT_METALROUGH) return metalrough_sample(m, n, wo, u.xy, s);
 #endif
 #if MCPT_MAT_DIFFUSE
     s.wi = sample_cosine(n, u.xy, s.pdf);

@@ -20,7 +20,7 @@ from .probes import run_test_probe
 MODE = {"sample": 0, "weight": 1, "eval": 2, "light": 3, "bary": 4, "texture": 5, "normal": 6,
         "eta2": 7, "fresnel_conductor": 8, "cone": 9, "sphere": 10, "eval_t": 11}
 TYPE = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5,
-        "roughplastic": 6}
+        "roughplastic": 6, "metalrough": 7}
 PROBE_FEATURES = Features.of(bounces=1).everything()
 
 

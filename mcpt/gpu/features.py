@@ -25,7 +25,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..scene.animation import camera_moves
-from ..shading import microfacet, thindielectric
+from ..shading import metalrough, microfacet, thindielectric
 from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
@@ -92,6 +92,7 @@ class Uses:
     rough_dielectric: bool = False  # rough glass present (mcpt/shading/roughdielectric.py)
     thin_dielectric: bool = False   # thin glass present (mcpt/shading/thindielectric.py)
     rough_plastic: bool = False     # rough plastic present: its 16-texel table (roughplastic.py)
+    metalrough: bool = False        # glTF metal-rough present (mcpt/shading/metalrough.py)
     dielectric: bool = False        # smooth glass present
     absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
@@ -120,7 +121,7 @@ class Uses:
             directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,
-            separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True,
+            separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True, metalrough=True,
             medium=True, interior_media=True)
 
     @property
@@ -141,7 +142,8 @@ class Uses:
         if self.conductor and self.fresnel_complex:
             return 5 + table
         extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
-                 or self.one_sided or self.rough_dielectric or self.thin_dielectric or self.rough_plastic)
+                 or self.one_sided or self.rough_dielectric or self.thin_dielectric or self.rough_plastic
+                 or self.metalrough)
         return (4 if extra else 2) + table
 
     @property
@@ -282,6 +284,7 @@ class Features:
             "MCPT_MAT_ROUGH_DIELECTRIC": b(u.rough_dielectric),
             "MCPT_MAT_THIN_DIELECTRIC": b(u.thin_dielectric),
             "MCPT_MAT_ROUGH_PLASTIC": b(u.rough_plastic),
+            "MCPT_MAT_METALROUGH": b(u.metalrough),
             "MCPT_TRANSMISSION": b(u.transmission),
             "MCPT_DELTA": b(u.delta),
             "MCPT_MAT_TEXELS": u.material_texels,
@@ -367,7 +370,8 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         smooth_normals=mt.smooth_shaded(ids), fresnel_complex=mt.complex_fresnel(ids),
         one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids),
         opacity=mt.cut_out(ids), **medium_uses(world), **{"bvh_dense": world.bvh.dense, **flags})
-    f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids), **camera_uses(world.scene.camera))
+    f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids), **metalrough.uses(mt, ids),
+                  **camera_uses(world.scene.camera))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..shading import roughplastic
+from ..shading import metalrough, roughplastic
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError, load_texture
 from .materials import ImageTexture, Material
@@ -79,6 +79,7 @@ class MaterialRow:
     distribution: str = "ggx"
     masking: str = "height_correlated"
     nonlinear: bool = False
+    metallic: float = 0.0
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -132,7 +133,11 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
         rgb = ym.specular_reflectance
         albedo = tuple(rgb) if isinstance(rgb, tuple) else (1.0, 1.0, 1.0)
     emission = tuple(ym.emission) if ym.emission is not None else ke
-    return MaterialRow(name, ym.type, albedo, emission, alpha=ym.roughness, ior=ym.ior,
+    alpha, metallic = ym.roughness, 0.0
+    if ym.type == "metalrough":  # glTF's perceptual roughness; glTF's defaults (1, 1) when absent
+        alpha = metalrough.alpha(ym.roughness if "roughness" in ym.model_fields_set else 1.0)
+        metallic = ym.metallic if ym.metallic is not None else 1.0
+    return MaterialRow(name, ym.type, albedo, emission, alpha=alpha, ior=ym.ior, metallic=metallic,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
@@ -222,7 +227,8 @@ class MaterialResolver:
                              opacity=tuple(r.opacity for r in rows),
                              distribution=tuple(r.distribution for r in rows),
                              masking=tuple(r.masking for r in rows), nonlinear=col("nonlinear", bool),
-                             coat=np.asarray([_coat(r) for r in rows]).reshape(-1, 65))
+                             coat=np.asarray([_coat(r) for r in rows]).reshape(-1, 65),
+                             metallic=col("metallic", np.float64))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""

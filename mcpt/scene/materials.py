@@ -121,9 +121,11 @@ MATERIAL_KEYS = {
     "thindielectric": ("ior",),
     "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
                      "two_sided"),
+    "metalrough": ("albedo", "albedo_texture", "metallic", "roughness", "masking", "two_sided"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
-             "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior")
+             "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior",
+             "metallic")
 
 
 class Material(StrictModel):
@@ -154,6 +156,10 @@ class Material(StrictModel):
     * ``roughplastic``: Mitsuba 3's ``roughplastic``: a Lambertian base (``albedo``) under a rough
       dielectric coat (``ior``, ``roughness`` in [0.001, 1], ``distribution``, ``masking``), the
       coat's internal reflections by Mitsuba's ``nonlinear`` rule (default false).
+    * ``metalrough``: glTF 2.0's metal-rough material as the glTF specification's appendix B defines
+      it (mcpt/shading/metalrough.py): base colour ``albedo`` (or ``albedo_texture``), ``metallic``
+      in [0, 1] and the perceptual ``roughness`` in [0, 1] (GGX alpha = roughness^2), both 1 when
+      absent as in glTF; ``masking`` as for a rough conductor.
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -163,9 +169,9 @@ class Material(StrictModel):
     """
 
     type: Literal["diffuse", "conductor", "dielectric", "plastic", "roughdielectric", "thindielectric",
-                  "roughplastic"] = "diffuse"
-    """Material model: diffuse, conductor, dielectric, plastic, roughdielectric, thindielectric or
-    roughplastic."""
+                  "roughplastic", "metalrough"] = "diffuse"
+    """Material model: diffuse, conductor, dielectric, plastic, roughdielectric, thindielectric,
+    roughplastic or metalrough."""
     albedo: Albedo | None = None
     """Linear RGB reflectance in [0, 1]; None = the mesh's MTL ``Kd``, else 0.8 grey. For a
     conductor: the reflectance at normal incidence."""
@@ -173,7 +179,10 @@ class Material(StrictModel):
     """An image as the albedo (a file name or ``{file, wrap, filter, uv}``) or a checkerboard
     (``{type: checkerboard, color0, color1, uv}``, mcpt/scene/textures.py); excludes ``albedo``."""
     roughness: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
-    """Conductor: the microfacet alpha in [0, 1], 0 = mirror; roughdielectric: [0.001, 1]."""
+    """Conductor: the microfacet alpha in [0, 1], 0 = mirror; roughdielectric: [0.001, 1]; metalrough:
+    glTF's perceptual roughness (alpha = roughness^2)."""
+    metallic: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    """Metalrough: glTF's metallic in [0, 1] (None: 1, glTF's default)."""
     distribution: Literal["ggx", "beckmann"] = "ggx"
     """Rough conductor or dielectric: the microfacet distribution (mcpt/shading/microfacet.py)."""
     masking: Literal["height_correlated", "separable"] = "height_correlated"

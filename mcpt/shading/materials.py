@@ -17,6 +17,7 @@
                                     eta (complex Fresnel); the coat's internal diffuse
                                     Fresnel reflectance (plastic)
     4: k.rgb, 0                     conductor with complex Fresnel: the extinction coefficient
+                                    metal-rough (mcpt/shading/metalrough.py): 3.x metallic
     last 16                         rough plastic (mcpt/shading/roughplastic.py): 3.x the coat's
                                     sampling weight, 3.w Fdr_int, then T at 64 cosines
 
@@ -32,10 +33,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import microfacet
+from . import metalrough, microfacet
 
 TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5,
-         "roughplastic": 6}
+         "roughplastic": 6, "metalrough": 7}
 #: Glass has two sides by nature: never one-sided.
 TWO_SIDED_TYPES = ("dielectric", "roughdielectric", "thindielectric")
 
@@ -105,6 +106,7 @@ class MaterialTable:
     masking: tuple = None       # (M,) rough materials: "height_correlated" or "separable"
     nonlinear: np.ndarray = None  # (M,) bool: a plastic's nonlinear mode
     coat: np.ndarray = None     # (M, 65) rough plastic: T at 64 cosines, Fdr_int (roughplastic.py)
+    metallic: np.ndarray = None  # (M,) metal-rough: glTF metallic in [0, 1] (metalrough.py)
 
     def __post_init__(self):
         m = len(self.names)
@@ -113,7 +115,8 @@ class MaterialTable:
                     "fresnel": ("schlick",) * m, "spec": np.ones((m, 3)), "eta": np.ones((m, 3)),
                     "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool), "normal_map": (None,) * m,
                     "opacity": (None,) * m, "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m,
-                    "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65))}
+                    "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65)),
+                    "metallic": np.zeros(m)}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -128,7 +131,8 @@ class MaterialTable:
     def is_rough(self, i: int) -> bool:
         """Whether material ``i`` is a microfacet surface (alpha >= MIN_ALPHA: a rough conductor;
         a rough dielectric always is)."""
-        return self.types[i] in ("conductor", "roughdielectric", "roughplastic") and self.alpha[i] >= MIN_ALPHA
+        return (self.types[i] in ("conductor", "roughdielectric", "roughplastic", "metalrough")
+                and self.alpha[i] >= MIN_ALPHA)
 
     def rough(self, ids) -> bool:
         return any(self.is_rough(i) for i in self.used(ids))
@@ -182,6 +186,7 @@ class MaterialTable:
             fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
             out[:m, 3, 3] = f32(fdr)
             self._pack_rough_plastic(out, texels)
+            metalrough.pack(self, out)
         if texels in (5, 21):
             out[:m, 4, :3] = f32(self.k)
         return out.reshape(-1, 4)
