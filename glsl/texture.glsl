@@ -86,6 +86,10 @@ vec3 albedo_at(Material m, Hit h) {
     vec3 albedo = m.albedo;
 #if MCPT_TEXTURES
     if (m.texture >= 0) albedo = texture_rgb(m.texture, tri_uv(h.tri, h.bary));
+#if MCPT_MAT_METALROUGH
+    // glTF's base colour: the texture times baseColorFactor (the row's albedo, 1 without one).
+    if (m.texture >= 0 && m.type == MAT_METALROUGH) albedo *= m.albedo;
+#endif
 #endif
     return albedo;
 }

@@ -143,16 +143,18 @@ def test_metal_rough_mapping(tmp_path, caplog):
     with caplog.at_level(logging.WARNING, logger="mcpt"):
         scene = load_scene(b.write_gltf(tmp_path / "m.gltf"))
     mats = scene.materials
-    assert mats["grey"].type == "diffuse" and mats["grey"].albedo == (0.5, 0.5, 0.5) and mats["grey"].two_sided
+    grey = mats["grey"]  # every material is the spec's own metal-rough BRDF (metalrough)
+    assert (grey.type, grey.albedo, grey.metallic, grey.roughness) == ("metalrough", (0.5, 0.5, 0.5), 0, 1)
+    assert grey.two_sided
     assert mats["lamp"].emission == (5, 5, 5) and not mats["lamp"].two_sided
-    metal = mats["metal"]
-    assert metal.type == "conductor" and metal.albedo == (0.9, 0.6, 0.3) and metal.roughness == 0.25
-    assert metal.fresnel_mode == "schlick"
-    assert mats["shiny"].type == "diffuse" and mats["shiny"].albedo == (0.2, 0.4, 0.6)
+    metal = mats["metal"]  # roughness stays perceptual: metalrough squares it (alpha 0.25)
+    assert (metal.type, metal.albedo, metal.metallic, metal.roughness) == ("metalrough", (0.9, 0.6, 0.3), 1, 0.5)
+    shiny = mats["shiny"]
+    assert (shiny.type, shiny.albedo, shiny.metallic, shiny.roughness) == ("metalrough", (0.2, 0.4, 0.6), 0, 0.3)
     default = mats["gltf_default"]  # spec 3.9.6: white, metallic 1, roughness 1
-    assert default.type == "conductor" and default.albedo == (1, 1, 1) and default.roughness == 1
+    assert (default.type, default.albedo, default.metallic, default.roughness) == ("metalrough", (1, 1, 1), 1, 1)
     text = caplog.text
-    assert "materials[3] 'shiny': approximated as diffuse" in text
+    assert "approximated" not in text and "rounded" not in text
     assert re.search(r"materials\[3\] 'shiny': ignored by mcpt: occlusionTexture", text)
     assert mats["shiny"].opacity_cutoff == 0.5 and mats["shiny"].opacity.color0 == (1.0, 1.0, 1.0)
     assert [m.material for m in scene.meshes] == ["grey", "lamp", "metal", "shiny", "gltf_default"]
@@ -332,9 +334,11 @@ def test_gltf_and_equivalent_yaml_render_the_same_pixels(gl, tmp_path):
     (tmp_path / "s.yaml").write_text(json.dumps({
         "camera": {"position": [0, 0, 4], "look_at": [0, 0, 3], "up": [0, 1, 0], "vfov_deg": 45,
                    "resolution": [16, 16]},
-        "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5], "two_sided": True},
-                      "lamp": {"type": "diffuse", "albedo": [0, 0, 0], "emission": [5, 5, 5], "two_sided": False},
-                      "metal": {"type": "conductor", "albedo": [0.9, 0.6, 0.3], "roughness": 0.25,
+        "materials": {"grey": {"type": "metalrough", "albedo": [0.5, 0.5, 0.5], "metallic": 0, "roughness": 1,
+                               "two_sided": True},
+                      "lamp": {"type": "metalrough", "albedo": [0, 0, 0], "metallic": 0, "emission": [5, 5, 5],
+                               "two_sided": False},
+                      "metal": {"type": "metalrough", "albedo": [0.9, 0.6, 0.3], "metallic": 1, "roughness": 0.5,
                                 "two_sided": False}},
         "meshes": [{"file": "quad.obj", "material": "grey", "transform": {"translate": [0, 0, -1], "scale": 2}},
                    {"file": "quad.obj", "material": "lamp", "transform": {"matrix": lamp}},

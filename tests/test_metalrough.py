@@ -185,3 +185,46 @@ def test_rendered_furnace_is_the_quadrature_albedo(gl):
     print(f"furnace: rendered {got}, quadrature {want}, se {se}")
     assert res.dropped_samples == 0
     assert np.all(np.abs(got - want) < 4 * se + 2e-3), (got, want, se)
+
+
+def test_gltf_maps_pbr_metallic_roughness(gl, tmp_path, caplog):
+    """glTF's pbrMetallicRoughness -> metalrough: a base colour texture times its factor renders as
+    the untextured product; a metallicRoughnessTexture scales the factors by its B and G means."""
+    import logging
+
+    import cv2
+
+    from mcpt.api import render_scene
+    from mcpt.scene import load_scene
+    from mcpt.shading.texture import srgb_to_linear
+
+    from .test_gltf import small_scene
+
+    def scene(textured: bool):
+        b = small_scene()
+        pbr = b.doc["materials"][0]["pbrMetallicRoughness"]  # 'grey': metallic 0, roughness 1
+        pbr.update(metallicFactor=0.5, roughnessFactor=0.8)
+        if textured:
+            ok, png = cv2.imencode(".png", np.full((2, 2, 3), 200, np.uint8))
+            ok, mr = cv2.imencode(".png", np.dstack([np.full((2, 2), 153, np.uint8), np.full((2, 2), 51, np.uint8),
+                                                     np.zeros((2, 2), np.uint8)]))  # BGR: B 0.6, G 0.2
+            b.doc["images"] = [{"bufferView": b.view(png.tobytes()), "mimeType": "image/png"},
+                               {"bufferView": b.view(mr.tobytes()), "mimeType": "image/png"}]
+            b.doc["textures"] = [{"source": 0}, {"source": 1}]
+            pbr.update(baseColorTexture={"index": 0}, baseColorFactor=[0.5, 0.25, 1, 1],
+                       metallicRoughnessTexture={"index": 1})
+        else:
+            c = float(srgb_to_linear(200))
+            pbr.update(baseColorFactor=[0.5 * c, 0.25 * c, c, 1], metallicFactor=0.5 * 0.6, roughnessFactor=0.8 * 0.2)
+        return b.write_glb(tmp_path / f"s{int(textured)}.glb")
+
+    with caplog.at_level(logging.WARNING, logger="mcpt"):
+        grey = load_scene(scene(True)).materials["grey"]
+    assert grey.type == "metalrough" and grey.albedo == (0.5, 0.25, 1.0) and grey.albedo_texture is not None
+    assert abs(grey.metallic - 0.3) < 1e-9 and abs(grey.roughness - 0.16) < 1e-9
+    assert "metallicRoughnessTexture is not read per texel" in caplog.text
+    settings = {"seed": 3, "spp": 8, "bounces": 3, "resolution": (16, 16)}
+    ra, _ = render_scene(scene(True), **settings)
+    rb, _ = render_scene(scene(False), **settings)
+    assert ra.image.mean() > 0.01
+    np.testing.assert_allclose(ra.image, rb.image, rtol=2e-3, atol=2e-4)

@@ -128,6 +128,8 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     albedo = tuple(ym.albedo) if ym.albedo is not None else kd
     if ym.type in GLASS:
         albedo = (1.0, 1.0, 1.0)  # unused: glass has no albedo
+    elif ym.type == "metalrough" and ym.albedo is None and ym.albedo_texture is not None:
+        albedo = (1.0, 1.0, 1.0)  # the texture's factor (glsl/texture.glsl albedo_at)
     elif ym.type == "conductor" and ym.fresnel_mode != "schlick":
         # The albedo slot holds the lobe scale (specular_reflectance, texturable).
         rgb = ym.specular_reflectance
@@ -236,8 +238,10 @@ class MaterialResolver:
             self._index[key] = len(self.rows)
             if tex is not None:
                 t = self._texture_id(tex, tex_where)
-                # The albedo column is informative only for a textured row: the shader reads texels.
-                row = replace(row, texture=t, albedo=tuple(self.textures[t].mean_linear()))
+                # The albedo column is informative only for a textured row: the shader reads texels
+                # (a metal-rough row's is the texture's factor: glsl/texture.glsl albedo_at).
+                mean = row.albedo if row.type == "metalrough" else tuple(self.textures[t].mean_linear())
+                row = replace(row, texture=t, albedo=mean)
             if row.normal_map is not None:
                 row = replace(row, normal_map=self._normal_map(row.name, row.normal_map))
             if row.opacity is not None:

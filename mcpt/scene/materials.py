@@ -159,7 +159,8 @@ class Material(StrictModel):
     * ``metalrough``: glTF 2.0's metal-rough material as the glTF specification's appendix B defines
       it (mcpt/shading/metalrough.py): base colour ``albedo`` (or ``albedo_texture``), ``metallic``
       in [0, 1] and the perceptual ``roughness`` in [0, 1] (GGX alpha = roughness^2), both 1 when
-      absent as in glTF; ``masking`` as for a rough conductor.
+      absent as in glTF; ``masking`` as for a rough conductor. With both ``albedo`` and
+      ``albedo_texture`` the base colour is their product (glTF's baseColorFactor x texture).
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -251,7 +252,7 @@ class Material(StrictModel):
                 raise FieldError(
                     (key,), f"a {self.type} material has no {key} (it is a parameter of: {', '.join(users)})"
                 )
-        if self.albedo is not None and self.albedo_texture is not None:
+        if self.albedo is not None and self.albedo_texture is not None and self.type != "metalrough":
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
         if self.absorption is not None and self.interior is not None:  # issue #25
             raise FieldError(("interior",), "give absorption or interior (its sigma_a absorbs), not both")

@@ -2,23 +2,22 @@
 
 What maps (README "glTF 2.0 scenes" has the full table):
 
-* ``metallicFactor >= 0.5``: a ``conductor`` with Schlick's Fresnel whose F0 (mcpt's conductor
-  ``albedo``) is the base colour, as glTF's metal BRDF has it (spec, appendix B.3.3); GGX
-  ``roughness`` alpha = roughnessFactor^2, because glTF's roughness is perceptual (B.3.2:
-  alpha = roughness^2). A factor strictly between 0 and 1 is rounded to metal or not (warned).
-* otherwise: ``diffuse`` of the base colour. glTF's dielectric adds a specular layer (F0 = 0.04)
-  that mcpt drops: a warning says so when roughnessFactor < 1, where that layer shows.
-* ``baseColorTexture`` (sRGB) -> ``albedo_texture`` (with the factor ignored, warned, if it is not
-  white); ``emissiveFactor`` x ``KHR_materials_emissive_strength`` -> ``emission`` (an
-  ``emissiveTexture`` scales it by the image's mean, warned); ``doubleSided`` -> ``two_sided``.
+* ``pbrMetallicRoughness`` -> mcpt's ``metalrough`` (mcpt/shading/metalrough.py), the spec's
+  appendix-B BRDF itself: ``baseColorFactor`` -> ``albedo``, ``metallicFactor`` -> ``metallic``,
+  ``roughnessFactor`` -> ``roughness`` (perceptual, alpha = roughness^2 as B.3.2).
+* ``baseColorTexture`` (sRGB) -> ``albedo_texture``, times the factor (``albedo``) as in glTF;
+  ``metallicRoughnessTexture`` (linear; B: metalness, G: roughness) scales the factors by its
+  channels' means (warned: mcpt does not read it per texel).
+* ``emissiveFactor`` x ``KHR_materials_emissive_strength`` -> ``emission`` (an ``emissiveTexture``
+  scales it by the image's mean, warned); ``doubleSided`` -> ``two_sided``.
 * ``normalTexture`` (linear, tangent space, ``scale``) -> ``normal_map`` with MikkTSpace-style
   tangents from the UVs (mcpt/shading/normal_map.py); a TANGENT attribute is not read.
 * ``alphaMode`` MASK (``alphaCutoff``) / BLEND -> ``opacity`` (+ ``opacity_cutoff`` for MASK):
   the base colour texture's alpha channel, else the factor's alpha; not on an emitter (warned).
-* ignored with a warning: metallicRoughnessTexture, occlusionTexture, other material extensions.
+* ignored with a warning: occlusionTexture, other material extensions.
 
 A primitive without a material gets the spec's default material (section 3.9.6): white,
-metallic 1, roughness 1, i.e. a rough white conductor.
+metallic 1, roughness 1.
 """
 
 from __future__ import annotations
@@ -35,7 +34,7 @@ log = logging.getLogger("mcpt")
 
 #: Material extensions mapped here; any other is ignored with a warning.
 KNOWN_EXTENSIONS = ("KHR_materials_emissive_strength",)
-IGNORED_TEXTURES = ("metallicRoughnessTexture", "occlusionTexture")
+IGNORED_TEXTURES = ("occlusionTexture",)
 
 
 def _factor(g: Gltf, obj: dict, key: str, default, where: str, n: int | None = None):
@@ -102,6 +101,19 @@ def _emission(g: Gltf, m: dict, where: str) -> list[float] | None:
     return emissive.tolist()
 
 
+def _metal_rough_mean(g: Gltf, pbr: dict, where: str, metallic: float, roughness: float) -> tuple[float, float]:
+    """metallicRoughnessTexture: the factors times the means of its linear B (metalness) and G
+    (roughness) channels; mcpt does not read it per texel (warned)."""
+    from ...shading.texture import load_texture  # only scenes that use one pay for OpenCV
+
+    ref = _texture_info(g, pbr["metallicRoughnessTexture"], where, "metallicRoughnessTexture")
+    mean = load_texture(ref["file"], linear=True).mean_linear()
+    metallic, roughness = metallic * float(mean[2]), roughness * float(mean[1])
+    log.warning("%s: %s: metallicRoughnessTexture is not read per texel: its mean gives metallic %.3g, "
+                "roughness %.3g everywhere", g.path, where, metallic, roughness)
+    return metallic, roughness
+
+
 def _warn_ignored(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> None:
     ignored = [k for k in IGNORED_TEXTURES if k in m or k in pbr]
     ignored += [f"extension {e}" for e in obj(m.get("extensions")) if e not in KNOWN_EXTENSIONS]
@@ -132,24 +144,14 @@ def material(g: Gltf, index: int | None) -> dict:
     base = _factor(g, pbr, "baseColorFactor", [1.0, 1.0, 1.0, 1.0], where, 4)
     if (base > 1.0).any():
         raise g.error(where, f"baseColorFactor {base.tolist()} is not in [0, 1]")
-    metallic = _factor(g, pbr, "metallicFactor", 1.0, where)
+    metallic = min(_factor(g, pbr, "metallicFactor", 1.0, where), 1.0)
     roughness = min(_factor(g, pbr, "roughnessFactor", 1.0, where), 1.0)
-    out: dict = {"type": "conductor" if metallic >= 0.5 else "diffuse", "two_sided": m.get("doubleSided") is True}
-    if "baseColorTexture" in pbr:
+    if "metallicRoughnessTexture" in pbr:
+        metallic, roughness = _metal_rough_mean(g, pbr, where, metallic, roughness)
+    out: dict = {"type": "metalrough", "albedo": base[:3].tolist(), "metallic": metallic,
+                 "roughness": roughness, "two_sided": m.get("doubleSided") is True}
+    if "baseColorTexture" in pbr:  # times the factor (glsl/texture.glsl albedo_at)
         out["albedo_texture"] = _texture_info(g, pbr["baseColorTexture"], where, "baseColorTexture")
-        if (base[:3] != 1.0).any():
-            log.warning("%s: %s: baseColorFactor %s times the texture: mcpt uses the texture alone",
-                        g.path, where, base[:3].tolist())
-    else:
-        out["albedo"] = base[:3].tolist()
-    if out["type"] == "conductor":
-        out["roughness"] = roughness * roughness  # perceptual roughness -> GGX alpha (spec B.3.2)
-    elif roughness < 1.0:
-        log.warning("%s: %s: approximated as diffuse: glTF's dielectric specular layer (F0 0.04, "
-                    "roughness %.3g) is dropped", g.path, where, roughness)
-    if 0.0 < metallic < 1.0:
-        log.warning("%s: %s: metallicFactor %.3g rounded to %s", g.path, where, metallic,
-                    "metal (conductor)" if metallic >= 0.5 else "non-metal (diffuse)")
     if "normalTexture" in m:
         out["normal_map"] = _normal_map(g, m["normalTexture"], where)
     emission = _emission(g, m, where)
