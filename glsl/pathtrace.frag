@@ -96,6 +96,9 @@ bool path_step(inout Path P) {
     vec3 ns = shading_normal(m, h, ng, cos_o, wo);  // normals.glsl
     if (!normal_map_apply(h, cos_o < 0.0, wo, ns)) return false;  // normal_map.glsl
     m.albedo = albedo_at(m, h);                     // texture.glsl
+#if MCPT_MAT_METALROUGH
+    metalrough_at(m, h);                            // texture.glsl: glTF's metallicRoughnessTexture
+#endif
     material_side(m, cos_o < 0.0);                  // materials.glsl
     if (material_black(m)) return false;  // pure emitter
     vec3 x = tri_point(h.tri, h.bary);

@@ -93,3 +93,18 @@ vec3 albedo_at(Material m, Hit h) {
 #endif
     return albedo;
 }
+
+#if MCPT_MAT_METALROUGH
+// A metal-rough material's metallicRoughnessTexture at hit h (mcpt/shading/metalrough.py), read
+// linearly: metallic (m.scale.x) times its blue, the perceptual roughness factor (m.scale.z) times
+// its green, alpha = roughness^2 floored as the host floors it. Texture id in m.scale.y (-1: none).
+void metalrough_at(inout Material m, Hit h) {
+#if MCPT_TEXTURES
+    if (m.type != MAT_METALROUGH || m.scale.y < 0.0) return;
+    vec3 c = texture_rgb(int(m.scale.y), tri_uv(h.tri, h.bary));
+    float r = m.scale.z * c.g;
+    m.scale.x *= c.b;
+    m.alpha = max(r * r, 1e-3);
+#endif
+}
+#endif

@@ -53,7 +53,8 @@ class TextureRef:
     file: Path
     wrap: str = "repeat"
     filter: str = "bilinear"
-    linear: bool = False  # read c / 255 (an MTL map_d opacity), not sRGB-decoded
+    linear: bool = False  # read c / 255 (an MTL map_d opacity, a metallic-roughness map), not sRGB-decoded
+    uv: object = None     # the YAML texture's UV transform, if any
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,7 @@ class MaterialRow:
     masking: str = "height_correlated"
     nonlinear: bool = False
     metallic: float = 0.0
+    metal_rough: object = None  # metalrough: the metallic-roughness TextureRef, then its texture id (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -139,7 +141,9 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
     if ym.type == "metalrough":  # glTF's perceptual roughness; glTF's defaults (1, 1) when absent
         alpha = metalrough.alpha(ym.roughness if "roughness" in ym.model_fields_set else 1.0)
         metallic = ym.metallic if ym.metallic is not None else 1.0
-    return MaterialRow(name, ym.type, albedo, emission, alpha=alpha, ior=ym.ior, metallic=metallic,
+    mr = ym.metallic_roughness_texture
+    mr = TextureRef(mr.file, mr.wrap, mr.filter, linear=True, uv=mr.uv) if mr is not None else None
+    return MaterialRow(name, ym.type, albedo, emission, alpha=alpha, ior=ym.ior, metallic=metallic, metal_rough=mr,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
@@ -174,7 +178,8 @@ class MaterialResolver:
     def needs_uvs(self, spec: Mesh, file_materials) -> bool:
         """Whether some material of the mesh reads a texture (read UVs)."""
         ym = self.yaml_material(spec)
-        if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity)):
+        if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity
+                                                                         or ym.metallic_roughness_texture)):
             return True
         if any(m.d_map is not None for m in file_materials) and (ym is None or ym.opacity is None):
             return True
@@ -230,7 +235,9 @@ class MaterialResolver:
                              distribution=tuple(r.distribution for r in rows),
                              masking=tuple(r.masking for r in rows), nonlinear=col("nonlinear", bool),
                              coat=np.asarray([_coat(r) for r in rows]).reshape(-1, 65),
-                             metallic=col("metallic", np.float64))
+                             metallic=col("metallic", np.float64),
+                             metal_rough=np.asarray([-1 if r.metal_rough is None else r.metal_rough for r in rows],
+                                                    np.int64).reshape(-1))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -248,6 +255,9 @@ class MaterialResolver:
                 ref, cutoff = row.opacity
                 t = self._texture_id(ref, self.scene.where("materials", row.name, "opacity"))
                 row = replace(row, opacity=(t, cutoff))
+            if row.metal_rough is not None:
+                where = self.scene.where("materials", row.name, "metallic_roughness_texture")
+                row = replace(row, metal_rough=self._texture_id(row.metal_rough, where))
             self.rows.append(row)
         return self._index[key]
 

@@ -121,11 +121,12 @@ MATERIAL_KEYS = {
     "thindielectric": ("ior",),
     "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
                      "two_sided"),
-    "metalrough": ("albedo", "albedo_texture", "metallic", "roughness", "masking", "two_sided"),
+    "metalrough": ("albedo", "albedo_texture", "metallic", "roughness", "masking", "two_sided",
+                   "metallic_roughness_texture"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
              "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior",
-             "metallic")
+             "metallic", "metallic_roughness_texture")
 
 
 class Material(StrictModel):
@@ -160,7 +161,9 @@ class Material(StrictModel):
       it (mcpt/shading/metalrough.py): base colour ``albedo`` (or ``albedo_texture``), ``metallic``
       in [0, 1] and the perceptual ``roughness`` in [0, 1] (GGX alpha = roughness^2), both 1 when
       absent as in glTF; ``masking`` as for a rough conductor. With both ``albedo`` and
-      ``albedo_texture`` the base colour is their product (glTF's baseColorFactor x texture).
+      ``albedo_texture`` the base colour is their product (glTF's baseColorFactor x texture);
+      ``metallic_roughness_texture`` scales ``metallic`` by its blue and ``roughness`` by its green
+      channel per texel (glTF's metallicRoughnessTexture, linear).
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -184,6 +187,9 @@ class Material(StrictModel):
     glTF's perceptual roughness (alpha = roughness^2)."""
     metallic: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
     """Metalrough: glTF's metallic in [0, 1] (None: 1, glTF's default)."""
+    metallic_roughness_texture: ImageTexture | None = None
+    """Metalrough: glTF's metallicRoughnessTexture, read linearly: its blue channel times ``metallic``,
+    its green times ``roughness``, per texel."""
     distribution: Literal["ggx", "beckmann"] = "ggx"
     """Rough conductor or dielectric: the microfacet distribution (mcpt/shading/microfacet.py)."""
     masking: Literal["height_correlated", "separable"] = "height_correlated"
@@ -238,7 +244,7 @@ class Material(StrictModel):
     def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
         return None if value is None else _colour_or_texture(value, info)
 
-    @field_validator("albedo_texture", "opacity", mode="before")
+    @field_validator("albedo_texture", "opacity", "metallic_roughness_texture", mode="before")
     @classmethod
     def _albedo_texture(cls, value: Any, info: ValidationInfo) -> Any:
         return _texture(value, info)

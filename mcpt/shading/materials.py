@@ -17,7 +17,9 @@
                                     eta (complex Fresnel); the coat's internal diffuse
                                     Fresnel reflectance (plastic)
     4: k.rgb, 0                     conductor with complex Fresnel: the extinction coefficient
-                                    metal-rough (mcpt/shading/metalrough.py): 3.x metallic
+                                    metal-rough (mcpt/shading/metalrough.py): 3.x metallic,
+                                    3.y its metallic-roughness texture id (a float, -1: none),
+                                    3.z the perceptual roughness factor
     last 16                         rough plastic (mcpt/shading/roughplastic.py): 3.x the coat's
                                     sampling weight, 3.w Fdr_int, then T at 64 cosines
 
@@ -107,6 +109,7 @@ class MaterialTable:
     nonlinear: np.ndarray = None  # (M,) bool: a plastic's nonlinear mode
     coat: np.ndarray = None     # (M, 65) rough plastic: T at 64 cosines, Fdr_int (roughplastic.py)
     metallic: np.ndarray = None  # (M,) metal-rough: glTF metallic in [0, 1] (metalrough.py)
+    metal_rough: np.ndarray = None  # (M,) metal-rough: metallic-roughness texture id, -1: none
 
     def __post_init__(self):
         m = len(self.names)
@@ -116,7 +119,7 @@ class MaterialTable:
                     "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool), "normal_map": (None,) * m,
                     "opacity": (None,) * m, "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m,
                     "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65)),
-                    "metallic": np.zeros(m)}
+                    "metallic": np.zeros(m), "metal_rough": np.full(m, -1, np.int64)}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -142,7 +145,7 @@ class MaterialTable:
 
     def textured(self, ids) -> bool:
         return any(self.texture[i] >= 0 or self.normal_map[i] is not None or self.opacity[i] is not None
-                   for i in self.used(ids))
+                   or self.metal_rough[i] >= 0 for i in self.used(ids))
 
     def cut_out(self, ids) -> bool:
         return any(self.opacity[i] is not None for i in self.used(ids))

@@ -35,8 +35,10 @@ def uses(table, ids) -> dict[str, bool]:
 
 
 def pack(table, out: np.ndarray) -> None:
-    """metallic into texel 3.x of each metal-rough row (texel 3's other values are unused)."""
+    """Texel 3 of each metal-rough row: metallic, the metallic-roughness texture id (as a float, -1:
+    none) and the perceptual roughness factor sqrt(alpha) (the texture's green scales it per texel)."""
     for i, t in enumerate(table.types):
         if t == "metalrough":
-            out[i, 3, :3] = np.float32([table.metallic[i], 0.0, 0.0]).view(np.uint32)
+            row = [table.metallic[i], float(table.metal_rough[i]), np.sqrt(table.alpha[i])]
+            out[i, 3, :3] = np.float32(row).view(np.uint32)
             out[i, 3, 3] = 0

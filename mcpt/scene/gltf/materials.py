@@ -6,8 +6,8 @@ What maps (README "glTF 2.0 scenes" has the full table):
   appendix-B BRDF itself: ``baseColorFactor`` -> ``albedo``, ``metallicFactor`` -> ``metallic``,
   ``roughnessFactor`` -> ``roughness`` (perceptual, alpha = roughness^2 as B.3.2).
 * ``baseColorTexture`` (sRGB) -> ``albedo_texture``, times the factor (``albedo``) as in glTF;
-  ``metallicRoughnessTexture`` (linear; B: metalness, G: roughness) scales the factors by its
-  channels' means (warned: mcpt does not read it per texel).
+  ``metallicRoughnessTexture`` (linear; B: metalness, G: roughness) -> ``metallic_roughness_texture``,
+  which scales the factors per texel.
 * ``emissiveFactor`` x ``KHR_materials_emissive_strength`` -> ``emission`` (an ``emissiveTexture``
   scales it by the image's mean, warned); ``doubleSided`` -> ``two_sided``.
 * ``normalTexture`` (linear, tangent space, ``scale``) -> ``normal_map`` with MikkTSpace-style
@@ -101,19 +101,6 @@ def _emission(g: Gltf, m: dict, where: str) -> list[float] | None:
     return emissive.tolist()
 
 
-def _metal_rough_mean(g: Gltf, pbr: dict, where: str, metallic: float, roughness: float) -> tuple[float, float]:
-    """metallicRoughnessTexture: the factors times the means of its linear B (metalness) and G
-    (roughness) channels; mcpt does not read it per texel (warned)."""
-    from ...shading.texture import load_texture  # only scenes that use one pay for OpenCV
-
-    ref = _texture_info(g, pbr["metallicRoughnessTexture"], where, "metallicRoughnessTexture")
-    mean = load_texture(ref["file"], linear=True).mean_linear()
-    metallic, roughness = metallic * float(mean[2]), roughness * float(mean[1])
-    log.warning("%s: %s: metallicRoughnessTexture is not read per texel: its mean gives metallic %.3g, "
-                "roughness %.3g everywhere", g.path, where, metallic, roughness)
-    return metallic, roughness
-
-
 def _warn_ignored(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> None:
     ignored = [k for k in IGNORED_TEXTURES if k in m or k in pbr]
     ignored += [f"extension {e}" for e in obj(m.get("extensions")) if e not in KNOWN_EXTENSIONS]
@@ -146,12 +133,13 @@ def material(g: Gltf, index: int | None) -> dict:
         raise g.error(where, f"baseColorFactor {base.tolist()} is not in [0, 1]")
     metallic = min(_factor(g, pbr, "metallicFactor", 1.0, where), 1.0)
     roughness = min(_factor(g, pbr, "roughnessFactor", 1.0, where), 1.0)
-    if "metallicRoughnessTexture" in pbr:
-        metallic, roughness = _metal_rough_mean(g, pbr, where, metallic, roughness)
     out: dict = {"type": "metalrough", "albedo": base[:3].tolist(), "metallic": metallic,
                  "roughness": roughness, "two_sided": m.get("doubleSided") is True}
     if "baseColorTexture" in pbr:  # times the factor (glsl/texture.glsl albedo_at)
         out["albedo_texture"] = _texture_info(g, pbr["baseColorTexture"], where, "baseColorTexture")
+    if "metallicRoughnessTexture" in pbr:  # B metalness, G roughness, per texel (glsl/texture.glsl)
+        out["metallic_roughness_texture"] = _texture_info(g, pbr["metallicRoughnessTexture"], where,
+                                                          "metallicRoughnessTexture")
     if "normalTexture" in m:
         out["normal_map"] = _normal_map(g, m["normalTexture"], where)
     emission = _emission(g, m, where)
