@@ -229,3 +229,16 @@ def test_gltf_maps_pbr_metallic_roughness(gl, tmp_path, caplog):
     rb, _ = render_scene(scene(False), **settings)
     assert ra.image.mean() > 0.01
     np.testing.assert_allclose(ra.image, rb.image, rtol=2e-3, atol=2e-4)
+
+
+def test_metallic_one_is_the_schlick_rough_conductor(gl):
+    """metallic 1 is appendix B's metal_brdf alone: mcpt's rough conductor with Schlick F0 = base
+    colour and GGX alpha = roughness^2 (glsl/bsdf_conductor.glsl), value and pdf."""
+    rng = np.random.default_rng(3)
+    wi = rng.normal(size=(128, 3))
+    wi[:, 2] = np.abs(wi[:, 2]) + 0.05
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wo = (0.0, 0.6, 0.8)
+    mr = floats(probe(gl, "eval", wi.astype(np.float32), **_u(1.0, 0.5, wo)))
+    co = floats(probe(gl, "eval", wi.astype(np.float32), type="conductor", albedo=BASE, alpha=0.25, wo=wo, front=1))
+    np.testing.assert_allclose(mr, co, rtol=1e-4, atol=1e-7)
