@@ -163,6 +163,9 @@ def test_compiled_only_when_used_and_bad_input():
     dflt = load_world(_mat("{type: metalrough}")).materials  # glTF's defaults: metallic 1, roughness 1
     j = dflt.types.index("metalrough")
     assert (dflt.metallic[j], dflt.alpha[j]) == (1.0, 1.0)
+    from mcpt.shading import materials, metalrough
+
+    assert metalrough.MIN_ALPHA == materials.MIN_ALPHA and metalrough.alpha(0.0) == materials.MIN_ALPHA
     assert for_world(load_world(_mat("{type: plastic}"))).defines()["MCPT_MAT_METALROUGH"] == 0
     assert "less than or equal to 1" in _err("{type: metalrough, metallic: 1.5}")
     assert "has no ior" in _err("{type: metalrough, ior: 1.4}")
