@@ -121,6 +121,8 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
             mat["albedo"] = [0.0, 0.0, 0.0]  # Mitsuba: an emitter without a BSDF reflects nothing
         if s.radiance is not None and any(s.radiance):
             mat["emission"] = list(s.radiance)
+        if s.radiance_texture is not None:  # issue #22: a bitmap radiance
+            mat["emission"], mat["emission_texture"] = [1.0, 1.0, 1.0], s.radiance_texture
         if s.smooth:
             mat["smooth_normals"] = True
         key = json.dumps(mat, sort_keys=True)
