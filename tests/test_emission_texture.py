@@ -147,3 +147,13 @@ def test_nee_bsdf_and_mis_agree_on_a_textured_emitter(gl, tmp_path, sampling):
     mean_z = float(z.mean()) * math.sqrt(z.size)
     assert abs(mean_z) < 4, mean_z
     assert np.abs(z).max() < 6
+
+
+def test_mitsuba_area_emitter_with_a_bitmap_radiance():
+    from mcpt.scene.mitsuba import scene_data
+
+    mats = scene_data(ROOT / "bench" / "scenes-xml" / "emission-texture.xml")[0]["materials"]
+    lamps = [m for m in mats.values() if "emission_texture" in m]
+    assert len(lamps) == 2 and all(m["emission"] == [1.0, 1.0, 1.0] for m in lamps)
+    assert {m["emission_texture"].get("filter", "bilinear") for m in lamps} == {"bilinear", "nearest"}
+    assert all(m["emission_texture"]["file"].endswith("emission-gradient.png") for m in lamps)
