@@ -15,7 +15,7 @@ vec3 emission_at(Material m, int tri, vec2 bary) {
 
 #if MCPT_NEE
 // Per triangle (BVH order), 4 a texel: pmf / area of its light entry (0: not an emitter).
-layout(binding = 13) uniform usamplerBuffer u_emit_pdf;
+layout(binding = 14) uniform usamplerBuffer u_emit_pdf;
 
 float emitter_pdf_area(int tri) {
     return uintBitsToFloat(texelFetch(u_emit_pdf, tri >> 2)[tri & 3]);

@@ -157,3 +157,25 @@ def test_mitsuba_area_emitter_with_a_bitmap_radiance():
     assert len(lamps) == 2 and all(m["emission"] == [1.0, 1.0, 1.0] for m in lamps)
     assert {m["emission_texture"].get("filter", "bilinear") for m in lamps} == {"bilinear", "nearest"}
     assert all(m["emission_texture"]["file"].endswith("emission-gradient.png") for m in lamps)
+
+
+def test_every_buffer_has_its_own_texture_unit():
+    from mcpt.gpu.tbo import UNITS
+
+    assert len(set(UNITS.values())) == len(UNITS), UNITS
+
+
+def test_uber_shader_renders_a_textured_emitter_like_the_specialised_one(gl, tmp_path):
+    from mcpt.prepare import prepare
+
+    gradient(tmp_path / "g.png")
+    sc = room(tmp_path, f"emission: [4, 4, 4], emission_texture: {tmp_path / 'g.png'}")
+    out = []
+    for mode, seed in (("scene", 5), ("all", 6)):
+        p = prepare(sc, features_mode=mode, feature_flags={"variance": True})
+        try:
+            out.append(draw(p.renderer, 256, seed))
+        finally:
+            p.renderer.release()
+    z = z_of(*out)
+    assert abs(float(z.mean()) * math.sqrt(z.size)) < 4 and np.abs(z).max() < 6

@@ -39,8 +39,8 @@ UNITS = {
     "env_texels": 10,  # environment map radiance + cell pdfs, 1 texel each (mcpt/shading/envmap.py)
     "env_alias": 11,   # environment map alias tables (rows, then each row's cells), 2 entries a texel
     "tangents": 12,    # normal maps: corner tangents, 1 texel per triangle (mcpt/shading/normal_map.py)
-    "emit_pdf": 13,    # emission textures: pmf / area per triangle, 4 a texel (mcpt/shading/emission_texture.py)
     "normal_maps": 13,  # normal maps: texture id and scale, 1 texel per material (ditto)
+    "emit_pdf": 14,    # emission textures: pmf / area per triangle, 4 a texel (mcpt/shading/emission_texture.py)
 }
 
 
