@@ -179,3 +179,19 @@ def test_uber_shader_renders_a_textured_emitter_like_the_specialised_one(gl, tmp
             p.renderer.release()
     z = z_of(*out)
     assert abs(float(z.mean()) * math.sqrt(z.size)) < 4 and np.abs(z).max() < 6
+
+
+def test_glsl_light_pick_follows_the_textured_power_table(gl, tmp_path):
+    """chi^2 of the shader's light pick (tests/glsl/probe_sample.frag mode 3) against the
+    textured power table of the grid emitter."""
+    from .test_materials_util import chi2_test, floats, probe, uniform_numbers
+
+    gradient(tmp_path / "g.png")
+    lights = load_world(room(tmp_path, f"emission: [2, 2, 2], emission_texture: {tmp_path / 'g.png'}")).lights
+    n = 1 << 18
+    out = probe(gl, "light", uniform_numbers(n, 1, seed=8), tbos={"lights": lights.pack()}, light_count=lights.count)
+    idx, pmf = out[:, 0].astype(np.int64), floats(out)[:, 1]
+    slot = np.searchsorted(lights.triangles, idx)
+    p, stat, dof = chi2_test(np.bincount(slot, minlength=lights.count), lights.pmf * n)
+    assert p > 1e-3, f"chi2 = {stat:.1f} for {dof} dof, p = {p:.3g}"
+    np.testing.assert_allclose(pmf, lights.pmf[slot], rtol=1e-6)
