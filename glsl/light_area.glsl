@@ -2,7 +2,8 @@
 // next-event estimation (glsl/lights.glsl). An entry's payload is its triangle, picked with
 // probability proportional to emitted power x area; a point is then sampled uniformly on it, so
 // the area density is pmf / area = luminance(Le) / total power (the material's light_pdf_area,
-// which emitted_radiance uses for MIS).
+// which emitted_radiance uses for MIS; with emission textures the triangle's own pmf / area,
+// glsl/emission_texture.glsl, as the pick is by each triangle's textured power).
 
 // Uniform point on a triangle (square-root parametrisation, pbrt-v4 SampleUniformTriangle).
 vec2 sample_triangle_bary(vec2 u) {
@@ -13,7 +14,11 @@ vec2 sample_triangle_bary(vec2 u) {
 // A point on triangle tri (picked with probability pmf) seen from xo; pdf 0 when it faces away.
 void area_sample(inout LightSample ls, int tri, float pmf, vec3 xo, vec2 u) {
     ls.tri = tri;
-    ls.y = tri_point(tri, sample_triangle_bary(u));
+    vec2 bary = sample_triangle_bary(u);
+    ls.y = tri_point(tri, bary);
+#if MCPT_EMISSION_TEXTURES
+    ls.bary = bary;  // where light_radiance reads the emission texture
+#endif
     vec3 nl = tri_normal_raw(tri);
     float area2 = length(nl);  // twice the area
     nl /= area2;

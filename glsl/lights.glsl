@@ -15,6 +15,9 @@
 #include "normal_map.glsl"
 #include "bvh.glsl"
 #include "materials.glsl"
+#if MCPT_EMISSION_TEXTURES
+#include "emission_texture.glsl"
+#endif
 #if MCPT_MEDIUM
 // issue #25: shadow rays cross the scene's medium (medium_tr)
 #include "medium.glsl"
@@ -59,9 +62,17 @@ float emitter_mis(Path P, float pdf_light) {
 // Emitted radiance at hit h (cos_o = dot(n, ray.d) < 0: seen from the front), added to P.L with
 // its MIS weight. Dispatch (emitters a ray can hit): area lights are emissive materials.
 void emitted_radiance(inout Path P, Material m, Hit h, float cos_o) {
-    if (cos_o < 0.0 && max(m.emission.r, max(m.emission.g, m.emission.b)) > 0.0) {
+#if MCPT_EMISSION_TEXTURES
+    // Textured: radiance at the hit's UV; NEE's area density is per triangle (emission_texture.glsl).
+    vec3 le = emission_at(m, h.tri, h.bary);
+    float pdf_area = emitter_pdf_area(h.tri);
+#else
+    vec3 le = m.emission;
+    float pdf_area = m.light_pdf_area;
+#endif
+    if (cos_o < 0.0 && max(le.r, max(le.g, le.b)) > 0.0) {
         // Density with which NEE would have produced this point, as a solid angle.
-        P.L += P.beta * m.emission * emitter_mis(P, m.light_pdf_area * h.t * h.t / -cos_o);
+        P.L += P.beta * le * emitter_mis(P, pdf_area * h.t * h.t / -cos_o);
     }
 }
 
@@ -75,6 +86,9 @@ struct LightSample {
     int tri;      // area light: the emissive triangle (else -1)
     vec3 y;       // area light: the point on it
     vec3 n;       // area light: its unit geometric normal (the emitting side)
+#if MCPT_EMISSION_TEXTURES
+    vec2 bary;    // area light: the point's barycentrics (its UV for the emission texture)
+#endif
 };
 
 #if MCPT_NEE
@@ -163,7 +177,11 @@ LightSample light_sample(vec3 xo, int dim) {
 // What arrives along ls.wi (an area light's emission is read only for visible samples).
 vec3 light_radiance(LightSample ls) {
 #if MCPT_LIGHT_AREA
+#if MCPT_EMISSION_TEXTURES
+    if (light_is_area(ls)) return emission_at(material(tri_material(ls.tri)), ls.tri, ls.bary);
+#else
     if (light_is_area(ls)) return material(tri_material(ls.tri)).emission;
+#endif
 #endif
     return ls.L;
 }

@@ -1,6 +1,7 @@
 // Material table and BSDF dispatch (host side: mcpt/shading/materials.py, which documents the layout).
 // MCPT_MAT_TEXELS RGBA32UI texels per material:
 //   0 (albedo.rgb, type)  1 (emission.rgb, light_pdf_area)              -- always
+//     (with MCPT_EMISSION_TEXTURES 1.w is the emission texture id: glsl/emission_texture.glsl)
 //   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS >= 4
 //   4 (k.rgb, 0)                       -- with a complex-Fresnel conductor (MCPT_FRESNEL_COMPLEX)
 //   the last 16: a rough plastic's transmittance table (bsdf_roughplastic.glsl) -- MCPT_MAT_ROUGH_PLASTIC
@@ -31,6 +32,9 @@ layout(binding = 4) uniform usamplerBuffer u_materials;
 
 struct Material {
     vec3 albedo; int type; vec3 emission; float light_pdf_area;
+#if MCPT_EMISSION_TEXTURES
+    int emission_texture;  // texel 1.w instead of light_pdf_area: -1 none (glsl/emission_texture.glsl)
+#endif
 #if MCPT_MAT_TEXELS > 2
     float alpha;    // microfacet alpha (conductor, 0: mirror; rough dielectric)
     float ior;      // index of refraction (dielectrics, plastic); the outside is air
@@ -55,7 +59,13 @@ Material material(int id) {
     uvec4 b = texelFetch(u_materials, base + 1);
     Material m;
     m.albedo = uintBitsToFloat(a.xyz); m.type = int(a.w);
-    m.emission = uintBitsToFloat(b.xyz); m.light_pdf_area = uintBitsToFloat(b.w);
+    m.emission = uintBitsToFloat(b.xyz);
+#if MCPT_EMISSION_TEXTURES
+    // Texel 1.w holds the emission texture; the area density is per triangle (u_emit_pdf).
+    m.emission_texture = int(b.w); m.light_pdf_area = 0.0;
+#else
+    m.light_pdf_area = uintBitsToFloat(b.w);
+#endif
 #if MCPT_MAT_TEXELS > 2
     uvec4 c = texelFetch(u_materials, base + 2);
     uvec4 d = texelFetch(u_materials, base + 3);

@@ -349,3 +349,19 @@ def test_gltf_and_equivalent_yaml_render_the_same_pixels(gl, tmp_path):
     rb, _ = render_scene(tmp_path / "s.yaml", **settings)
     assert ra.image.mean() > 0.01
     np.testing.assert_allclose(ra.image, rb.image, rtol=1e-5, atol=1e-6)
+
+
+def test_emissive_texture_is_an_emission_texture_scaled_by_factor_and_strength(tmp_path, monkeypatch):
+    """Issue #22: emissiveTexture -> emission_texture, emissiveFactor x emissiveStrength its scale."""
+    import cv2
+
+    monkeypatch.setenv("MCPT_CACHE_DIR", str(tmp_path / "cache"))
+    ok, png = cv2.imencode(".png", np.full((2, 2, 3), 90, np.uint8))
+    b = small_scene()
+    b.doc["images"] = [{"bufferView": b.view(png.tobytes()), "mimeType": "image/png"}]
+    b.doc["textures"] = [{"source": 0}]
+    b.doc["materials"][1]["emissiveTexture"] = {"index": 0}
+    b.doc["materials"][1]["emissiveFactor"] = [1, 0.5, 0.25]
+    lamp = load_scene(b.write_glb(tmp_path / "t.glb")).materials["lamp"]
+    assert lamp.emission == (5, 2.5, 1.25)
+    assert lamp.emission_texture.file.read_bytes() == png.tobytes()

@@ -9,6 +9,7 @@ import pytest
 from mcpt.errors import McptError
 from mcpt.gpu.features import for_world
 from mcpt.scene import parse_scene
+from mcpt.shading.lights import LUMINANCE
 from mcpt.shading.texture import srgb_to_linear
 from mcpt.shapes import obj
 from mcpt.shapes.world import load_world
@@ -109,14 +110,24 @@ def test_missing_mtl_texture_is_one_line_naming_obj_mtl_and_file(tmp_path):
     load_world(_scene(quad, "  q: {albedo: [1, 1, 1]}", tmp_path))
 
 
-def test_map_ke_emits_the_texture_mean_with_a_warning(tmp_path, caplog):
+def test_map_ke_is_an_emission_texture_scaled_by_ke(tmp_path, caplog):
+    """Issue #22: map_Ke is read per hit (emission_texture) with Ke its scale; the light table
+    carries the textured power (the texture's mean over the quad's UV square x Ke x area)."""
     quad = _textured_quad(tmp_path / "m", mtl_extra="Ke 2 2 2\nmap_Ke tex/blocks.png\n")
     with caplog.at_level(logging.WARNING, logger="mcpt"):
         world = load_world(_scene(quad, tmp_path=tmp_path))
     i = world.materials.names.index("painted")
-    mean = srgb_to_linear(np.array(list(BLOCKS.values()))).mean(axis=0)
-    np.testing.assert_allclose(world.materials.emission[i], 2 * mean, rtol=1e-9)
-    assert "emission textures are not supported" in caplog.text
+    assert tuple(world.materials.emission[i]) == (2, 2, 2) and world.materials.emission_texture[i] >= 0
+    assert "not supported" not in caplog.text
+    lights = world.lights
+    mine = world.tri_material[lights.triangles] == i
+    lum = {k: srgb_to_linear(np.array(v)) @ LUMINANCE for k, v in BLOCKS.items()}
+    # The UV triangle u > v holds the bottom-right block and halves of its two neighbours.
+    half = 0.25 * (lum["bottom-left"] + lum["top-right"])
+    want = sorted([0.5 * lum["bottom-right"] + half, 0.5 * lum["top-left"] + half])  # x Ke 2 x area 0.5
+    got = sorted(lights.pmf[:lights.count][mine] * lights.total_power)
+    # Within the bilinear blur at the blocks' edges (and the repeat wrap): a uniform pick is 2x off.
+    np.testing.assert_allclose(got, want, rtol=0.1)
 
 
 def test_load_world_reads_each_obj_and_mtl_once(tmp_path, monkeypatch):

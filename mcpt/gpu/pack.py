@@ -12,6 +12,7 @@ reads it:
     materials  mcpt/shading/materials.py <-> glsl/materials.glsl
     normals    mcpt/shading/normals.py   <-> glsl/normals.glsl
     uvs, textures  mcpt/shading/texture.py <-> glsl/texture.glsl
+    emit_pdf   mcpt/shading/emission_texture.py <-> glsl/emission_texture.glsl
     camera     mcpt/shading/camera.py    <-> glsl/camera.glsl (uniforms)
     medium     mcpt/shading/medium.py    <-> glsl/medium.glsl (uniforms; issue #25)
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from ..scene.animation import eye_offset
 from ..shading.camera import camera_uniforms
+from ..shading.emission_texture import pack_emit_pdf
 from ..shading.environment import env_uniforms
 from ..shading.light_sun import sun_uniforms
 from ..shading.lights import material_light_pdf_area
@@ -64,11 +66,13 @@ def pack(world: World, features: Features) -> Packed:
     buffers = {"tris": pack_triangles(world.tris, world.tri_material),
                "materials": world.materials.pack(
                    material_light_pdf_area(world.materials.emission, world.lights.total_power),
-                   texels=features.material_texels)}
+                   texels=features.material_texels, emission_textures=features.compiled.emission_textures)}
     if features.bvh:
         buffers["nodes"] = world.bvh.gpu_nodes(world.tris, dense=features.bvh_dense)
     if features.nee:
         buffers["lights"] = world.lights.pack()
+        if features.compiled.emission_textures:  # issue #22: the per-triangle area density
+            buffers["emit_pdf"] = pack_emit_pdf(world.lights, world.n_triangles)
     # The uber-shader (--features all) declares these buffers for any scene, but reads them only
     # for materials that have smooth normals / a texture: without such a material nothing is
     # read, so nothing is uploaded.

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..shading import metalrough, roughplastic
 from ..shading.materials import MaterialTable
-from ..shading.texture import Texture, TextureError, load_texture
+from ..shading.texture import Texture, TextureError
 from .materials import ImageTexture, Material
 from .model import Mesh, Scene
 from .textures import (
@@ -82,6 +82,7 @@ class MaterialRow:
     nonlinear: bool = False
     metallic: float = 0.0
     metal_rough: object = None  # metalrough: the metallic-roughness TextureRef, then its texture id (_add)
+    emission_texture: object = None  # the texture reference, then its id (_add); issue #22
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -143,12 +144,14 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
         metallic = ym.metallic if ym.metallic is not None else 1.0
     mr = ym.metallic_roughness_texture
     mr = TextureRef(mr.file, mr.wrap, mr.filter, linear=True, uv=mr.uv) if mr is not None else None
+    if ym.emission_texture is not None:  # issue #22: emission scales the image (default 1)
+        emission = tuple(ym.emission) if ym.emission is not None else (1.0, 1.0, 1.0)
     return MaterialRow(name, ym.type, albedo, emission, alpha=alpha, ior=ym.ior, metallic=metallic, metal_rough=mr,
                        smooth=bool(ym.smooth_normals), sigma_a=absorption_sigma(ym),
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
                        distribution=ym.distribution, masking=ym.masking, nonlinear=ym.nonlinear_mode,
-                       **conductor_columns(ym))
+                       emission_texture=ym.emission_texture, **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -179,7 +182,10 @@ class MaterialResolver:
         """Whether some material of the mesh reads a texture (read UVs)."""
         ym = self.yaml_material(spec)
         if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity
-                                                                         or ym.metallic_roughness_texture)):
+                                                                         or ym.metallic_roughness_texture
+                                                                         or ym.emission_texture)):
+            return True
+        if any(m.ke_map is not None for m in file_materials) and (ym is None or ym.emission is None):
             return True
         if any(m.d_map is not None for m in file_materials) and (ym is None or ym.opacity is None):
             return True
@@ -196,20 +202,25 @@ class MaterialResolver:
             kd = tuple(mm.kd) if mm.kd is not None else DEFAULT_ALBEDO
             ke = tuple(mm.ke) if mm.ke is not None else BLACK
             kd_map = self._file_texture(mesh_where, spec, mm, mm.kd_map) if from_file else None
-            if ym is None or ym.emission is None:
-                ke = _file_emission(spec.file, mm, ke, self._file_texture(mesh_where, spec, mm, mm.ke_map))
+            ke_map = None
+            if ym is None or (ym.emission is None and ym.emission_texture is None):
+                ke_map = self._file_texture(mesh_where, spec, mm, mm.ke_map)
+                ke = ke if ke_map is None or mm.ke is not None else (1.0, 1.0, 1.0)  # map_Ke x Ke
             tex, tex_where = yaml_tex if yaml_tex is not None else (
                 kd_map, f"{mesh_where}: {spec.file}: material {mm.name!r}")
             tex_key = texture_key(tex) if tex is not None else None
             cut = self._file_opacity(mesh_where, spec, mm, ym, ke)
             if ym is None:
                 key = ("mtl", str(spec.file), mm.name)
-                ids[j] = self._add(key, replace(file_row(mm.name, kd, ke), opacity=cut), tex, tex_where)
+                row = replace(file_row(mm.name, kd, ke), opacity=cut, emission_texture=ke_map)
+                ids[j] = self._add(key, row, tex, tex_where)
                 continue
             # One row per YAML material, unless the file's colours show through it.
             full = not from_file and ym.emission is not None and cut is None
-            key = (spec.material,) if full else (spec.material, kd, ke, tex_key, cut and texture_key(cut[0]))
+            key = (spec.material,) if full else (spec.material, kd, ke, tex_key, cut and texture_key(cut[0]),
+                                                 ke_map and texture_key(ke_map))
             row = scene_row(spec.material, ym, kd, ke)
+            row = replace(row, emission_texture=ke_map) if ke_map is not None else row
             ids[j] = self._add(key, replace(row, opacity=cut) if cut is not None else row, tex, tex_where)
         return ids
 
@@ -237,7 +248,9 @@ class MaterialResolver:
                              coat=np.asarray([_coat(r) for r in rows]).reshape(-1, 65),
                              metallic=col("metallic", np.float64),
                              metal_rough=np.asarray([-1 if r.metal_rough is None else r.metal_rough for r in rows],
-                                                    np.int64).reshape(-1))
+                                                    np.int64).reshape(-1),
+                             emission_texture=np.asarray([-1 if r.emission_texture is None else r.emission_texture
+                                                          for r in rows], np.int64).reshape(-1))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -251,6 +264,9 @@ class MaterialResolver:
                 row = replace(row, texture=t, albedo=mean)
             if row.normal_map is not None:
                 row = replace(row, normal_map=self._normal_map(row.name, row.normal_map))
+            if row.emission_texture is not None:  # issue #22
+                where = self.scene.where("materials", row.name, "emission_texture")
+                row = replace(row, emission_texture=self._texture_id(row.emission_texture, where))
             if row.opacity is not None:
                 ref, cutoff = row.opacity
                 t = self._texture_id(ref, self.scene.where("materials", row.name, "opacity"))
@@ -319,18 +335,3 @@ def _coat(row: MaterialRow) -> np.ndarray:
         return np.zeros(65)
     table, fdr = roughplastic.tables(float(row.ior), float(row.alpha), row.distribution)
     return np.append(table, fdr)
-
-
-def _file_emission(mesh_file: Path, mm, ke: RGB, ref: TextureRef | None) -> RGB:
-    """A mesh file's emission: ``Ke``, times the mean of ``map_Ke`` when there is one (Ke 1 if
-    undeclared). Emission textures are not supported: the texture's mean keeps the emitted power,
-    and a warning says so."""
-    if ref is None:
-        return ke
-    mean = load_texture(ref.file).mean_linear()
-    base = np.asarray(ke if mm.ke is not None else (1.0, 1.0, 1.0), np.float64)
-    out = tuple(float(x) for x in base * mean)
-    log.warning("%s: material %r: map_Ke %s: emission textures are not supported; it emits the "
-                "texture's mean %s uniformly", mesh_file, mm.name, ref.file,
-                "(" + ", ".join(f"{x:.3g}" for x in out) + ")")
-    return out

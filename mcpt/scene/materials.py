@@ -218,6 +218,10 @@ class Material(StrictModel):
     """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
     """Emitted radiance (W sr^-1 m^-2, linear RGB, >= 0), front side only; None = MTL ``Ke``, else 0."""
+    emission_texture: ImageTexture | CheckerboardTexture | None = None
+    """Emitted radiance as an image (issue #22, mcpt/shading/emission_texture.py): radiance at a
+    point = the texture there (sRGB-decoded) x ``emission`` (a scale; default 1); light sampling
+    picks each triangle by its textured power."""
     normal_map: Annotated[NormalMap | None, BeforeValidator(normal_map_shorthand)] = None
     """A tangent-space normal map (a file name or ``{file, scale, handedness, wrap, filter, uv}``,
     mcpt/scene/textures.py); any type."""
@@ -244,7 +248,7 @@ class Material(StrictModel):
     def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
         return None if value is None else _colour_or_texture(value, info)
 
-    @field_validator("albedo_texture", "opacity", "metallic_roughness_texture", mode="before")
+    @field_validator("albedo_texture", "opacity", "metallic_roughness_texture", "emission_texture", mode="before")
     @classmethod
     def _albedo_texture(cls, value: Any, info: ValidationInfo) -> Any:
         return _texture(value, info)
@@ -262,7 +266,8 @@ class Material(StrictModel):
             raise FieldError(("albedo_texture",), "give albedo or albedo_texture, not both")
         if self.absorption is not None and self.interior is not None:  # issue #25
             raise FieldError(("interior",), "give absorption or interior (its sigma_a absorbs), not both")
-        if self.opacity is not None and self.emission is not None and max(self.emission) > 0:
+        if self.opacity is not None and (self.emission_texture is not None
+                                         or (self.emission is not None and max(self.emission) > 0)):
             raise FieldError(("opacity",), "an emitter cannot be cut out (light sampling needs its area)")
         if self.opacity_cutoff is not None and self.opacity is None:
             raise FieldError(("opacity_cutoff",), "opacity_cutoff needs an opacity texture")

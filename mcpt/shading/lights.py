@@ -35,6 +35,7 @@ class Lights:
     env_power: float = 0.0  # > 0: the environment is the last entry
     kinds: frozenset = field(default=frozenset())  # light types present: "area", "point", ...
     envmap: object = None   # the environment's EnvMap (mcpt/shading/envmap.py), None: constant or none
+    areas: np.ndarray = None  # (A,) area of each area light (the per-triangle pdf: emission_texture.py)
 
     @property
     def count(self) -> int:
@@ -71,10 +72,12 @@ class Lights:
 
 
 def build_lights(areas: np.ndarray, tri_emission: np.ndarray, punctual: tuple = (),
-                 env_power: float = 0.0, envmap=None) -> Lights:
+                 env_power: float = 0.0, envmap=None, tri_power: np.ndarray | None = None) -> Lights:
     """Lights from per-triangle areas (F,) and emitted radiance (F, 3) (triangles in BVH order),
-    the punctual lights, the environment's power (0: none) and its map (None: constant)."""
-    power = (tri_emission @ LUMINANCE) * areas
+    the punctual lights, the environment's power (0: none) and its map (None: constant);
+    ``tri_power``: each triangle's power where emission textures make it more than
+    luminance(Le) x area (mcpt/shading/emission_texture.py)."""
+    power = (tri_emission @ LUMINANCE) * areas if tri_power is None else tri_power
     idx = np.nonzero(power > 0.0)[0]
     powers = [power[idx], np.array([p.power for p in punctual], np.float64)]
     if env_power > 0:
@@ -84,7 +87,8 @@ def build_lights(areas: np.ndarray, tri_emission: np.ndarray, punctual: tuple = 
     pmf = allp / total if total > 0 else np.zeros(0)
     kinds = {p.kind for p in punctual} | ({"area"} if idx.size else set())
     kinds |= {"environment"} if env_power > 0 else set()
-    return Lights(idx.astype(np.int64), pmf, total, tuple(punctual), float(env_power), frozenset(kinds), envmap)
+    return Lights(idx.astype(np.int64), pmf, total, tuple(punctual), float(env_power), frozenset(kinds), envmap,
+                  np.asarray(areas, np.float64)[idx])
 
 
 def material_light_pdf_area(emission: np.ndarray, total_power: float) -> np.ndarray:

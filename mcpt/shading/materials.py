@@ -6,7 +6,9 @@
                                     reflectance; conductor: Schlick's F0, or the lobe scale
                                     (specular_reflectance) with fresnel none / conductor
     1: emission.rgb, light_pdf_area density with which NEE picks a point of this material
-                                    per unit area (needed for MIS, mcpt/shading/lights.py)
+                                    per unit area (needed for MIS, mcpt/shading/lights.py);
+                                    with emission textures the emission texture id instead
+                                    (the density is per triangle: emission_texture.py)
     2: alpha, ior, texture, flags   GGX alpha (conductor), index of refraction (dielectric,
                                     plastic), albedo texture id (0xffffffff: none), flags:
                                     bit 0 smooth normals, bits 1-2 conductor Fresnel mode
@@ -110,6 +112,7 @@ class MaterialTable:
     coat: np.ndarray = None     # (M, 65) rough plastic: T at 64 cosines, Fdr_int (roughplastic.py)
     metallic: np.ndarray = None  # (M,) metal-rough: glTF metallic in [0, 1] (metalrough.py)
     metal_rough: np.ndarray = None  # (M,) metal-rough: metallic-roughness texture id, -1: none
+    emission_texture: np.ndarray = None  # (M,) emission texture id, -1: none (emission_texture.py)
 
     def __post_init__(self):
         m = len(self.names)
@@ -119,7 +122,8 @@ class MaterialTable:
                     "k": np.zeros((m, 3)), "one_sided": np.zeros(m, bool), "normal_map": (None,) * m,
                     "opacity": (None,) * m, "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m,
                     "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65)),
-                    "metallic": np.zeros(m), "metal_rough": np.full(m, -1, np.int64)}
+                    "metallic": np.zeros(m), "metal_rough": np.full(m, -1, np.int64),
+                    "emission_texture": np.full(m, -1, np.int64)}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -145,7 +149,7 @@ class MaterialTable:
 
     def textured(self, ids) -> bool:
         return any(self.texture[i] >= 0 or self.normal_map[i] is not None or self.opacity[i] is not None
-                   or self.metal_rough[i] >= 0 for i in self.used(ids))
+                   or self.metal_rough[i] >= 0 or self.emission_texture[i] >= 0 for i in self.used(ids))
 
     def cut_out(self, ids) -> bool:
         return any(self.opacity[i] is not None for i in self.used(ids))
@@ -162,7 +166,7 @@ class MaterialTable:
     def one_sided_used(self, ids) -> bool:
         return any(bool(self.one_sided[i]) and self.types[i] not in TWO_SIDED_TYPES for i in self.used(ids))
 
-    def pack(self, light_pdf_area: np.ndarray, texels: int = 2) -> np.ndarray:
+    def pack(self, light_pdf_area: np.ndarray, texels: int = 2, emission_textures: bool = False) -> np.ndarray:
         m = len(self.names)
         out = np.zeros((max(m, 1), texels, 4), np.uint32)
         f32 = lambda a: np.asarray(a, np.float32).view(np.uint32)  # noqa: E731
@@ -170,6 +174,8 @@ class MaterialTable:
         out[:m, 0, 3] = [TYPES[t] for t in self.types]
         out[:m, 1, :3] = f32(self.emission)
         out[:m, 1, 3] = f32(light_pdf_area)
+        if emission_textures:  # 1.w: the emission texture; the density is per triangle (emit_pdf)
+            out[:m, 1, 3] = np.where(self.emission_texture >= 0, self.emission_texture, NO_TEXTURE).astype(np.uint32)
         if texels >= 4:
             alpha = np.where(self.alpha >= MIN_ALPHA, self.alpha, 0.0)
             out[:m, 2, 0] = f32(alpha)

@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import McptError
 from ..scene import Scene
 from ..scene.material_meaning import MaterialResolver
+from ..shading.emission_texture import triangle_powers
 from ..shading.environment import env_power, load_environment
 from ..shading.light_punctual import punctual_lights
 from ..shading.lights import Lights, build_lights
@@ -98,7 +99,10 @@ def load_world(scene: Scene) -> World:
     tris = tris[bvh.order]
     tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
-    lights = _lights(scene, tris, table.emission[tri_mat])
+    powers = None
+    if any(table.emission_texture >= 0):  # issue #22: textured emitters picked by their real power
+        powers = triangle_powers(geometry.areas(tris), tri_mat, uvs, table, resolver.textures)
+    lights = _lights(scene, tris, table.emission[tri_mat], powers)
     if lights.entries == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")
@@ -111,7 +115,7 @@ def load_world(scene: Scene) -> World:
                  _corner_tangents(parts, keep, bvh.order))
 
 
-def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
+def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray, powers=None) -> Lights:
     """Emissive triangles, the scene's punctual lights and its environment (issue #20), in one
     table; positions relative to the camera like the triangles."""
     lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
@@ -119,7 +123,7 @@ def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray) -> Lights:
     origin = np.asarray(scene.origin, np.float64)
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
     return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
-                        env_power(scene.environment, envmap, radius), envmap)
+                        env_power(scene.environment, envmap, radius), envmap, powers)
 
 
 def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:

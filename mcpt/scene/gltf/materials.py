@@ -8,8 +8,8 @@ What maps (README "glTF 2.0 scenes" has the full table):
 * ``baseColorTexture`` (sRGB) -> ``albedo_texture``, times the factor (``albedo``) as in glTF;
   ``metallicRoughnessTexture`` (linear; B: metalness, G: roughness) -> ``metallic_roughness_texture``,
   which scales the factors per texel.
-* ``emissiveFactor`` x ``KHR_materials_emissive_strength`` -> ``emission`` (an ``emissiveTexture``
-  scales it by the image's mean, warned); ``doubleSided`` -> ``two_sided``.
+* ``emissiveFactor`` x ``KHR_materials_emissive_strength`` -> ``emission``, the scale of
+  ``emissiveTexture`` (sRGB) -> ``emission_texture`` (issue #22); ``doubleSided`` -> ``two_sided``.
 * ``normalTexture`` (linear, tangent space, ``scale``) -> ``normal_map`` with MikkTSpace-style
   tangents from the UVs (mcpt/shading/normal_map.py); a TANGENT attribute is not read.
 * ``alphaMode`` MASK (``alphaCutoff``) / BLEND -> ``opacity`` (+ ``opacity_cutoff`` for MASK):
@@ -84,21 +84,16 @@ def _normal_map(g: Gltf, info, where: str) -> dict:
     return out
 
 
-def _emission(g: Gltf, m: dict, where: str) -> list[float] | None:
+def _emission(g: Gltf, m: dict, where: str) -> tuple[list[float] | None, dict | None]:
+    """emissiveFactor x emissiveStrength, and the emissiveTexture it scales (issue #22) or None."""
     emissive = _factor(g, m, "emissiveFactor", [0.0, 0.0, 0.0], where, 3)
     ext = obj(m.get("extensions")).get("KHR_materials_emissive_strength")
     if isinstance(ext, dict):
         emissive = emissive * _factor(g, ext, "emissiveStrength", 1.0, where)
     if not emissive.any():
-        return None
-    if "emissiveTexture" in m:
-        from ...shading.texture import load_texture  # only scenes that use one pay for OpenCV
-
-        ref = _texture_info(g, m["emissiveTexture"], where, "emissiveTexture")
-        emissive = emissive * load_texture(ref["file"]).mean_linear()
-        log.warning("%s: %s: emissiveTexture: emission textures are not supported; it emits the "
-                    "texture's mean (%s) uniformly", g.path, where, ", ".join(f"{x:.3g}" for x in emissive))
-    return emissive.tolist()
+        return None, None
+    tex = _texture_info(g, m["emissiveTexture"], where, "emissiveTexture") if "emissiveTexture" in m else None
+    return emissive.tolist(), tex
 
 
 def _warn_ignored(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> None:
@@ -142,9 +137,11 @@ def material(g: Gltf, index: int | None) -> dict:
                                                           "metallicRoughnessTexture")
     if "normalTexture" in m:
         out["normal_map"] = _normal_map(g, m["normalTexture"], where)
-    emission = _emission(g, m, where)
+    emission, emission_texture = _emission(g, m, where)
     if emission is not None:
         out["emission"] = emission
+    if emission_texture is not None:
+        out["emission_texture"] = emission_texture
     cut = _opacity(g, m, pbr, base, where)
     if cut and emission is not None and max(emission) > 0:
         log.warning("%s: %s: alphaMode %s on an emitter is ignored (rendered opaque: light sampling "

@@ -119,8 +119,7 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
             dict(bsdfs.material(s.bsdf, tree.ids)) if s.bsdf is not None else dict(DEFAULT_MATERIAL)))
         if s.bsdf is None and s.radiance is not None:
             mat["albedo"] = [0.0, 0.0, 0.0]  # Mitsuba: an emitter without a BSDF reflects nothing
-        if s.radiance is not None and any(s.radiance):
-            mat["emission"] = list(s.radiance)
+        mat.update(_emission(s))
         if s.smooth:
             mat["smooth_normals"] = True
         key = json.dumps(mat, sort_keys=True)
@@ -146,6 +145,14 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
         data["environment"] = environment
     add_medium(data, lines, fog, tree.ids)
     return data, lines
+
+
+def _emission(s) -> dict:
+    """A shape's area emitter as material keys: ``emission``, or a bitmap radiance as
+    ``emission_texture`` of scale 1 (issue #22)."""
+    if s.radiance_texture is not None:
+        return {"emission": [1.0, 1.0, 1.0], "emission_texture": s.radiance_texture}
+    return {"emission": list(s.radiance)} if s.radiance is not None and any(s.radiance) else {}
 
 
 def load_xml(path: str | Path, overrides=()) -> Scene:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...shapes.primitives import KINDS
 from . import values as V
+from .textures import emitter_texture
 from .xmltree import Node, deref, resolve_file
 
 FILE_SHAPES = ("obj", "ply", "serialized")
@@ -36,6 +37,7 @@ class ShapeOut:
     radiance: tuple[float, float, float] | None
     smooth: bool
     media: dict = field(default_factory=dict)  # issue #25: "interior" / "exterior" -> <medium> node
+    radiance_texture: dict | None = None  # issue #22: a bitmap radiance (mcpt's emission_texture)
 
 
 def _folded(kind: str, props: dict[str, Node], node: Node) -> np.ndarray:
@@ -120,12 +122,13 @@ def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeO
         elif target.tag in ("medium", "sensor"):
             raise target.error("not supported by mcpt inside a shape (media: name=\"interior\" or "
                                "\"exterior\"; no shape sensors)")
-    radiance = None
+    radiance = radiance_texture = None
     if emitter is not None:
         if emitter.get("type") != "area":
             raise emitter.error("not supported by mcpt on a shape (supported: area)")
         eprops = V.properties(emitter)
         radiance = V.as_color(eprops["radiance"]) if "radiance" in eprops else (1.0, 1.0, 1.0)
+        radiance_texture = emitter_texture(emitter, ids)
     flip = V.as_bool(props["flip_normals"]) if "flip_normals" in props else False
     mesh: dict = {}
     if kind in FILE_SHAPES:
@@ -147,7 +150,7 @@ def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeO
     if flip:
         mesh["flip_normals"] = True
     mesh.update(_matrix_dict(matrix))
-    out.append(ShapeOut(node, mesh, bsdf, radiance, smooth, media))
+    out.append(ShapeOut(node, mesh, bsdf, radiance, smooth, media, radiance_texture))
 
 
 def relative_paths(data: dict, folder: Path) -> dict:

@@ -165,3 +165,15 @@ def texture(node: Node, raw: bool = False) -> dict:
             raise props["filter_type"].error(f"filter_type {kind!r}: expected bilinear or nearest")
         out["filter"] = kind
     return out
+
+
+def emitter_texture(emitter: Node, ids: dict[str, Node]) -> dict | None:
+    """An area emitter's ``radiance`` given as a texture (issue #22): mcpt's ``emission_texture``
+    (its emission then a scale of 1), or None for a colour."""
+    for child in emitter.children:
+        if child.tag in ("texture", "ref") and child.get("name", "radiance") == "radiance":
+            target = deref(child, ids)
+            if target.tag != "texture":
+                raise child.error(f"expected a texture, got <{target.tag}>")
+            return texture(target)
+    return None
