@@ -14,6 +14,16 @@ world length (1 / world unit), linear RGB or one number for all three channels:
 
 Mean free path = 1 / sigma_t world units: a fog of density 0.1 in a 10-unit room scatters a camera
 ray about once on its way across.
+
+An interior medium behind an index-matched boundary (a dielectric of ior 1, Mitsuba's ``null``
+BSDF) with a delta light (point, spot, directional without a disk) is refused
+(:func:`check_delta_lights`): mcpt's shadow rays stop at every dielectric, so only light sampling
+could carry such a light across the boundary and it never does; the medium would be unlit by it and
+cast a black shadow where Mitsuba's volpath (whose shadow rays pass null BSDFs, src/integrators/
+volpath.cpp ``sample_emitter``: ``eval_null_transmission``) lights it and casts a transmittance
+shadow. Emissive meshes, environments and sun disks are right: a phase or BSDF sample passes the
+boundary (a delta bounce, so what it finds counts with MIS weight 1). Behind glass (ior != 1)
+Mitsuba's dielectric blocks shadow rays too: both leave the medium unlit by delta lights.
 """
 
 from __future__ import annotations
@@ -32,6 +42,33 @@ Coefficient = Annotated[Radiance, BeforeValidator(scalar_to_vec3)]
 #: can step (their spacing near 1 is 1.2e-7), so every path would stall where it starts.
 MAX_SIGMA_T = 1e6
 _G = Annotated[float, Field(gt=-1.0, lt=1.0)]
+
+
+def delta_light(kind: str, angular_diameter_deg) -> bool:
+    """A light that only light sampling finds (no ray hits it): point, spot, a directional without
+    a disk (mcpt/scene/lights.py)."""
+    return kind in ("point", "spot") or (kind == "directional" and not angular_diameter_deg)
+
+
+def blocked_reason(kind: str, which: str) -> str:
+    """Why a ``kind`` delta light (``which``: where it is) and a medium behind an ior-1 boundary are
+    refused (module docstring)."""
+    return (f"the {kind} light {which} cannot cross this ior-1 boundary (mcpt's shadow rays stop there, "
+            "Mitsuba's pass a null BSDF): it would not light the medium nor shine through it; use an "
+            "emissive mesh, an environment or a sun disk (angular_diameter_deg)")
+
+
+def check_delta_lights(scene) -> None:
+    """Refuse a used dielectric of ior 1 holding an interior medium in a scene with a delta light."""
+    delta = [(i, light.type) for i, light in enumerate(scene.lights)
+             if delta_light(light.type, light.angular_diameter_deg)]
+    if not delta:
+        return
+    used = {mesh.material for mesh in scene.meshes}
+    for name, mat in scene.materials.items():
+        if name in used and mat.type == "dielectric" and mat.interior is not None and mat.ior == 1.0:
+            i, kind = delta[0]
+            raise FieldError(("materials", name, "interior"), blocked_reason(kind, f"(lights[{i}])"))
 
 
 class Medium(StrictModel):

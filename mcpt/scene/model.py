@@ -48,7 +48,7 @@ from .fields import Resolution, StrictModel, Vec3, list_to_tuple, none_is_absent
 from .lens import Lens
 from .lights import Environment, Light
 from .materials import Material
-from .medium import Medium
+from .medium import Medium, check_delta_lights
 from .pixel_filter import FilterField, PixelFilter
 from .transform import Transform
 
@@ -249,6 +249,7 @@ class Scene(StrictModel):
                 )
         if self.animation is not None:  # issue #26: animated meshes exist
             check_scene(self)
+        check_delta_lights(self)  # issue #25: delta lights cannot cross an ior-1 medium boundary
         return self
 
     @property

@@ -14,6 +14,7 @@ Grid media and other phase functions are refused with their line.
 
 from __future__ import annotations
 
+from ..medium import blocked_reason, delta_light
 from . import values as V
 from .xmltree import Node, deref
 
@@ -107,3 +108,15 @@ def add_medium(data: dict, lines: dict, fog: Node | None, ids: dict[str, Node]) 
     if fog is not None:
         data["medium"] = medium(fog, ids)
         lines[("medium",)] = fog.line
+
+
+def check_null_lights(shapes, lights: list[dict], lines: dict) -> None:
+    """A null BSDF around an interior medium with a delta emitter (point, spot, directional) is
+    refused at the shape: mcpt's ior-1 boundary stops that light's shadow rays (mcpt/scene/medium.py)."""
+    delta = [(i, light["type"]) for i, light in enumerate(lights)
+             if delta_light(light["type"], light.get("angular_diameter_deg"))]
+    for s in shapes:
+        if delta and s.media.get("interior") is not None and s.bsdf is not None and s.bsdf.get("type") == "null":
+            i, kind = delta[0]
+            raise s.node.error('<ref name="interior"> (null BSDF): '
+                               + blocked_reason(kind, f"(<emitter>, line {lines[('lights', str(i))]})"))

@@ -20,7 +20,7 @@ from ..mapped import validated
 from ..model import Scene
 from . import bsdfs, camera
 from .emitters import emitter
-from .media import add_medium, scene_medium, shape_material
+from .media import add_medium, check_null_lights, scene_medium, shape_material
 from .shapes import ShapeOut, shape
 from .xmltree import Node, XmlError, deref, read_tree
 
@@ -109,6 +109,7 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
     cam, render = camera.sensor(sensor, objects)
     render["bounces"] = camera.integrator(integrator)
     fog = scene_medium(sensor, shapes, integrator, tree.ids)  # issue #25: the camera's medium
+    check_null_lights(shapes, lights, lines)  # issue #25: delta emitters and null boundaries
     lines[("camera",)] = sensor.line
     lines[("render",)] = (integrator or sensor).line
     materials: dict[str, dict] = {}
