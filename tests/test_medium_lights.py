@@ -74,7 +74,8 @@ def xml_with(tmp_path, emitter: str):
 
 
 def test_xml_null_bsdf_with_a_point_emitter_is_refused_at_the_shape(tmp_path, monkeypatch):
-    point = '<emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="5"/></emitter>'
+    point = ('<emitter type="point"><point name="position" x="0" y="3" z="0"/>'
+             '<rgb name="intensity" value="5"/></emitter>')
     path, emitter_line = xml_with(tmp_path, point)
     shape_line = next(i + 1 for i, line in enumerate(SMOKE.read_text().splitlines()) if '<shape type="sphere">' in line)
     with pytest.raises(SceneError) as exc:
