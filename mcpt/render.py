@@ -107,8 +107,6 @@ def render(scene, opts: Options, signals: StopSignals | None = None) -> Outcome:
                 resolution=opts.resolution, gl_backend=opts.gl_backend,
                 features_mode=opts.features_mode, clamp=opts.clamp, sampler=opts.sampler,
                 aovs=computed_aovs(opts.aovs, opts.denoise), overrides=opts.overrides)
-    if hasattr(opts.progress, "pixels"):
-        opts.progress.pixels = p.scene.camera.width * p.scene.camera.height
     try:
         return run(p, opts, signals)
     finally:
@@ -122,6 +120,8 @@ def run(p: Prepared, opts: Options, signals: StopSignals | None = None) -> Outco
     rs = p.scene.render
     if (opts.spp is not None and opts.spp != rs.spp) or (opts.seed is not None and opts.seed != rs.seed):
         p = replace(p, scene=p.scene.with_overrides(spp=opts.spp, seed=opts.seed))
+    if hasattr(opts.progress, "pixels"):  # here, not in render(): a frame sequence calls run alone
+        opts.progress.pixels = p.scene.camera.width * p.scene.camera.height
     loop = _Loop(p, opts, signals if signals is not None else StopSignals())
     if opts.workers or opts.scheduler or opts.client is not None:
         from .farm.cluster import render_on_cluster

@@ -177,6 +177,21 @@ def test_frame_n_of_a_sequence_is_the_still_at_n(tmp_path, meshes):
         np.testing.assert_array_equal(frames[f], still(scene, f, tmp_path / f"still{f}.exr"))
 
 
+def test_progress_counts_paths_of_every_pixel_in_a_sequence(tmp_path):
+    """paths/s of a frame is pixels x passes / s (a sequence calls run() alone: it used to report
+    passes/s under the paths/s label)."""
+    class Record:
+        pixels = 1
+
+        def __call__(self, done, total, run, seconds):
+            self.seen = (done, total)
+
+    rec = Record()
+    scene = load_scene(ORBIT).with_overrides(**SMALL)
+    render_sequence(scene, Options([str(tmp_path / "p.#.exr")], progress=rec), [2])
+    assert rec.pixels == scene.camera.width * scene.camera.height > 1 and rec.seen[0] == rec.seen[1]
+
+
 def test_a_rerun_renders_only_what_is_missing(tmp_path):
     scene = load_scene(ORBIT).with_overrides(**SMALL)
     pattern = str(tmp_path / "s.####.exr")
