@@ -24,6 +24,10 @@ Reported per scene:
   spp, where the variance estimates themselves are noisy).
 * ``relmse``: relMSE between the two images (bench/common.py: eps 0.01), and ``relmse_noise``:
   what the two variances alone predict for it (agreeing renderers: relmse ~ relmse_noise).
+* ``Sidak``: bench/stats.py's z-test, Mitsuba 3's own rule for its render tests: pass when at
+  least 99.75 % of the pixel channels are within the Šidák-corrected |z| threshold (image alpha
+  0.01) and every channel's image mean within 4 standard errors; the column gives the share
+  accepted.
 * ``seconds``: each renderer's render time (mcpt: its render loop; Mitsuba: its ``mi.render``
   calls; process start, parsing and BVH builds excluded on both sides).
 
@@ -44,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from . import mitsuba as peer
+from . import stats
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = Path(__file__).resolve().parent / "scenes-xml"
@@ -94,8 +99,10 @@ def run_mitsuba(scene: Path, spp: int, seed: int, defines: list[str], runs: int,
             "spp": info["spp"], "version": info["mitsuba_version"]}
 
 
-def compare(a: dict, b: dict, eps: float = 0.01) -> dict:
-    """The statistics of the module doc for two (mean, var_mean) images of the same shape."""
+def compare(a: dict, b: dict, eps: float = 0.01, spp: int | None = None) -> dict:
+    """The statistics of the module doc for two (mean, var_mean) images of the same shape; with
+    ``spp``, also bench/stats.py's Šidák-corrected per-pixel z-test (Mitsuba 3's render-test rule),
+    its variance floor being the per-sample floor of that module over ``spp``."""
     x, y = a["mean"], b["mean"]
     if x.shape != y.shape:
         raise ValueError(f"image shapes differ: mcpt {x.shape}, Mitsuba {y.shape}")
@@ -111,7 +118,17 @@ def compare(a: dict, b: dict, eps: float = 0.01) -> dict:
             "mean_z": diff / sigma if sigma > 0 else float("nan"),
             "pixel_z_gt3": float((np.abs(z) > 3).mean()),
             "relmse": float(np.mean((x - y) ** 2 / (ref * ref + eps))),
-            "relmse_noise": float(np.mean(var / (ref * ref + eps)))}
+            "relmse_noise": float(np.mean(var / (ref * ref + eps))), **_sidak(a, b, spp)}
+
+
+def _sidak(a: dict, b: dict, spp: int | None) -> dict:
+    if spp is None:
+        return {}
+    y = b["mean"]
+    t = stats.z_test(a["mean"], y, a["var_mean"], b["var_mean"],
+                     var_floor=(stats.VAR_FLOOR_ABS + stats.VAR_FLOOR_REL * y * y) / spp)
+    return {"sidak_pass": bool(t.passed), "sidak_accepted": t.accepted, "sidak_threshold": t.threshold,
+            "sidak_global_z": [float(v) for v in np.atleast_1d(t.global_z)]}
 
 
 def read_list(path: Path) -> list[Path]:
@@ -137,7 +154,7 @@ def measure(scene: Path, a) -> dict:
             p = run_mitsuba(scene, a.spp, a.seed + 1, a.defines, a.runs, Path(tmp), a.resolution)
         except RuntimeError as exc:
             return {**row, "status": "peer failed", "why": str(exc).splitlines()[-1]}
-    return {**row, "status": "rendered", **compare(m, p), "seconds_mcpt": m["seconds"],
+    return {**row, "status": "rendered", **compare(m, p, spp=a.spp), "seconds_mcpt": m["seconds"],
             "seconds_mitsuba": p["seconds"], "mitsuba": p["version"], "warnings": m["warnings"]}
 
 
@@ -172,7 +189,7 @@ def main(argv=None) -> int:
     scenes = scenes or sorted(SCENES.glob("*.xml"))
     rows = []
     print(f"{'scene':34s} {'mean mcpt':>10s} {'mean mts':>10s} {'z':>6s} {'|z|>3':>7s} "
-          f"{'relMSE':>9s} {'noise':>9s} {'t mcpt':>7s} {'t mts':>7s}")
+          f"{'relMSE':>9s} {'noise':>9s} {'t mcpt':>7s} {'t mts':>7s} {'Sidak':>13s}")
     for scene in scenes:
         row = measure(scene, a)
         rows.append(row)
@@ -181,7 +198,8 @@ def main(argv=None) -> int:
             continue
         print(f"{short(scene):34s} {row['mean_mcpt']:10.4f} {row['mean_mitsuba']:10.4f} "
               f"{row['mean_z']:6.2f} {100 * row['pixel_z_gt3']:6.2f}% {row['relmse']:9.2e} "
-              f"{row['relmse_noise']:9.2e} {row['seconds_mcpt']:7.2f} {row['seconds_mitsuba']:7.2f}")
+              f"{row['relmse_noise']:9.2e} {row['seconds_mcpt']:7.2f} {row['seconds_mitsuba']:7.2f} "
+              f"{'pass' if row['sidak_pass'] else 'FAIL'} {100 * row['sidak_accepted']:6.2f}%")
         for w in row["warnings"]:
             print(f"    {w}")
     if a.json is not None:
