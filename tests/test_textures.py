@@ -180,3 +180,48 @@ def test_gltf_khr_texture_transform_reads_the_texel_gltf_reads(tmp_path):
     ext["scale"] = [0.0, 1.0]
     with pytest.raises(SceneError, match=r"KHR_texture_transform: scale \[0.0, 1.0\] flattens"):
         load_scene(b.write_glb(tmp_path / "t.glb"))
+
+
+def _png_header_only(path, width, height):
+    """A PNG whose IHDR claims width x height (its data is a few bytes): what a size check must
+    catch before any decoder allocates the pixels."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64))
+                     + chunk(b"IEND", b""))
+    return path
+
+
+def test_an_absurd_texture_is_refused_from_its_header_in_one_located_line(tmp_path):
+    """Issue #22: a 20000^2 PNG was killed for memory, a 40000^2 one ended in OpenCV's assertion."""
+    from click.testing import CliRunner
+
+    from mcpt.cli.main import main
+
+    _png_header_only(tmp_path / "huge.png", 40000, 40000)
+    scene = _scene(tmp_path, "{albedo_texture: huge.png}")
+    out = tmp_path / "x.exr"
+    r = CliRunner().invoke(main, ["render", str(scene), "--spp", "1", "--resolution", "8x8", "-o", str(out),
+                                  "--quiet", "--no-cache"])
+    lines = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert r.exit_code == 2 and len(lines) == 1 and not out.exists(), r.output
+    assert re.search(r"s\.yaml:\d+: materials\.floor\.albedo_texture: .*huge\.png: 40000 x 40000 .* at most "
+                     r"67108864", lines[0]), lines[0]
+
+
+def test_decoded_texels_are_the_srgb_curve_of_each_texel(tmp_path):
+    import cv2
+
+    from mcpt.shading.texture import srgb_to_linear
+
+    img = np.random.default_rng(3).integers(0, 256, (37, 23, 3), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "t.png"), img)
+    t = load_texture(tmp_path / "t.png")
+    np.testing.assert_array_equal(t.decoded(), srgb_to_linear(t.srgb))
+    lin = load_texture(tmp_path / "t.png", linear=True)
+    np.testing.assert_array_equal(lin.decoded(), lin.srgb / 255.0)

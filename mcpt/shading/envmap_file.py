@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import logging
 import re
-import struct
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import McptError
+from .image_header import ldr_size
 
 log = logging.getLogger("mcpt")
 
@@ -83,34 +83,6 @@ def _hdr_size(path: Path) -> tuple[int, int]:
         raise EnvMapError(f"{path}: not a Radiance .hdr image (no resolution line in its header)")
     first, second = int(m.group(3)), int(m.group(6))
     return (second, first) if m.group(2) == b"Y" else (first, second)
-
-
-_JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
-
-
-def _ldr_size(path: Path) -> tuple[int, int] | None:
-    """PNG: the IHDR chunk; JPEG: the first start-of-frame segment. None if not found (OpenCV
-    then decides)."""
-    with open(path, "rb") as f:
-        head = f.read(24)
-        if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
-            return struct.unpack(">II", head[16:24])
-        if head[:2] != b"\xff\xd8":
-            return None
-        f.seek(2)
-        for _ in range(1000):  # segments before the frame header: APPn, DQT, COM, ...
-            marker = f.read(4)
-            if len(marker) < 4 or marker[0] != 0xFF:
-                return None
-            length = struct.unpack(">H", marker[2:4])[0]
-            if marker[1] in _JPEG_SOF:
-                frame = f.read(5)
-                if len(frame) < 5:
-                    return None
-                h, w = struct.unpack(">HH", frame[1:5])
-                return w, h
-            f.seek(length - 2, 1)
-    return None
 
 
 def _check_size(path: Path, size: tuple[int, int] | None) -> None:
@@ -206,7 +178,7 @@ def read_envmap_image(path: str | Path) -> tuple[np.ndarray, str | None]:
             _check_size(path, _hdr_size(path))
             img = _read_cv2(path, hdr=True)
         else:
-            _check_size(path, _ldr_size(path))
+            _check_size(path, ldr_size(path))
             img = _read_cv2(path, hdr=False)
     except OSError as exc:
         raise EnvMapError(f"{path}: cannot read: {_one_line(exc.strerror or exc)}") from None

@@ -74,8 +74,11 @@ class Texture:
         return np.concatenate([uv_texels(self.uv), px]) if self.flags & FLAG_TRANSFORM else px
 
     def decoded(self) -> np.ndarray:
-        """(H, W, 3) float64 values the shader filters: sRGB-decoded, or c / 255 if linear."""
-        return self.srgb / 255.0 if self.linear else srgb_to_linear(self.srgb)
+        """(H, W, 3) float64 values the shader filters: sRGB-decoded, or c / 255 if linear. Through
+        a 256-entry table (the same values as decoding each texel: one float64 array, not the five
+        temporaries of the curve, which made a 4096^2 texture's set-up peak ~1.8 GB)."""
+        lut = np.arange(256) / 255.0 if self.linear else srgb_to_linear(np.arange(256))
+        return lut[self.srgb]
 
     def mean_linear(self) -> np.ndarray:
         return self.decoded().reshape(-1, 3).mean(axis=0)
@@ -99,12 +102,46 @@ def apply_uv(uv_map, uv: np.ndarray) -> np.ndarray:
     return np.asarray(uv, np.float64) @ m[:, :2].T + m[:, 2]
 
 
+#: The most pixels an image texture may have (2^26: 8192 x 8192, one uint each in the textures
+#: buffer, 256 MiB), found from the file's header before decoding (issue #22: a 20000^2 PNG was
+#: killed for memory, a 40000^2 one ended in OpenCV's assertion, exit 1).
+MAX_TEXTURE_TEXELS = 1 << 26
+#: Host bytes per pixel while a texture is read and packed (measured peak RSS: 4096^2 adds ~410 MB,
+#: 2048^2 ~75 MB; the decoded float64 copy, the uint32 texels and the buffer upload), rounded up.
+TEXTURE_BYTES_PER_TEXEL = 40
+
+
+def check_texture_size(path: Path) -> None:
+    """Refuse, from the header alone, an image too large for the textures buffer or this machine."""
+    from ..gpu.host_memory import available_bytes
+    from .image_header import ldr_size
+
+    try:
+        size = ldr_size(path)
+    except OSError:
+        return  # missing or unreadable: the reader below says so
+    if size is None:
+        return
+    w, h = size
+    if w * h > MAX_TEXTURE_TEXELS:
+        raise TextureError(f"{path}: {w} x {h} = {w * h} pixels; a texture may have at most "
+                           f"{MAX_TEXTURE_TEXELS} (2^26, e.g. 8192 x 8192)")
+    need, avail = w * h * TEXTURE_BYTES_PER_TEXEL, available_bytes()
+    if avail is not None and need > avail:
+        raise TextureError(f"{path}: {w} x {h} needs about {need / 2**30:.1f} GiB to load, more than the "
+                           f"{avail / 2**30:.1f} GiB of memory available")
+
+
 def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=IDENTITY_UV,
                  linear: bool = False, alpha: bool = False) -> Texture:
     import cv2  # only scenes with textures pay for the import
 
     path = Path(path)
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    check_texture_size(path)
+    try:
+        img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    except cv2.error as exc:  # OpenCV's own limits (CV_IO_MAX_IMAGE_PIXELS) past ours: its first line
+        raise TextureError(f"{path}: cannot read the image ({str(exc).strip().splitlines()[-1]})") from None
     if img is None:
         raise TextureError(f"{path}: cannot read the image (missing, or not a format OpenCV reads)")
     if img.dtype == np.uint16:
