@@ -32,7 +32,8 @@ def reports_errors(fn):
 
     Exit codes (README "Exit codes"): 0 done; 1 internal error (a bug, reported on one line unless
     -vv asks for the traceback); 2 bad input; 3 no usable OpenGL; 128 + the signal for a stop
-    signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP: mcpt/farm/signals.py). No command writes its image
+    signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP: mcpt/farm/signals.py); 141 stdout closed by its
+    reader (stdout_closed). No command writes its image
     before the work is done, and images are renamed into place when complete
     (mcpt/output/image.py), so no failure leaves a partial image. Click's own usage errors (a bad
     option value found by a command) keep click's message and its exit status, 2."""
