@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import sys
 
 import click
@@ -31,7 +32,8 @@ def reports_errors(fn):
 
     Exit codes (README "Exit codes"): 0 done; 1 internal error (a bug, reported on one line unless
     -vv asks for the traceback); 2 bad input; 3 no usable OpenGL; 128 + the signal for a stop
-    signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP: mcpt/farm/signals.py). No command writes its image
+    signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP: mcpt/farm/signals.py); 141 stdout closed by its
+    reader (stdout_closed). No command writes its image
     before the work is done, and images are renamed into place when complete
     (mcpt/output/image.py), so no failure leaves a partial image. Click's own usage errors (a bad
     option value found by a command) keep click's message and its exit status, 2."""
@@ -42,6 +44,8 @@ def reports_errors(fn):
             return fn(*args, **kwargs)
         except click.ClickException:
             raise
+        except BrokenPipeError:
+            stdout_closed()
         except GLError as exc:
             click.echo(f"mcpt: error: {exc}", err=True)
             sys.exit(EXIT_GL)
@@ -75,6 +79,22 @@ def _which(exc: Interrupted) -> str:
     return f" while writing: {', '.join(kept)} left as it was{new}"
 
 
+EXIT_SIGPIPE = 128 + 13  # what a shell reports for a command killed by SIGPIPE
+
+
+def stdout_closed() -> None:
+    """The reader of stdout went away (``mcpt info scene.yaml | head``): stop quietly, as a
+    command killed by SIGPIPE does, exit 141 (issue #24 item 17: a BrokenPipeError was an
+    internal error, exit 1). stdout is pointed at /dev/null first, so the interpreter's last
+    flush at exit cannot fail again (Python's documented recipe, library/signal.html)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # no real stdout (click's test runner): nothing to flush
+        pass
+    sys.exit(EXIT_SIGPIPE)
+
+
 class _OneLineUsageError(click.UsageError):
     """click's usage errors print a usage block; mcpt prints one line naming the option."""
 
@@ -83,18 +103,35 @@ class _OneLineUsageError(click.UsageError):
         click.echo(f"mcpt: error: {self.format_message()}{hint}", file=file, err=True)
 
 
+class _NoCommand(click.UsageError):
+    """``mcpt`` alone: the help, then the error on a line of its own (issue #24 item 19: the hint
+    was glued to the help's last line)."""
+
+    def show(self, file=None) -> None:
+        click.echo(self.ctx.get_help(), file=file, err=True)
+        click.echo("mcpt: error: missing COMMAND (see 'mcpt --help')", file=file, err=True)
+
+
 class _Group(click.Group):
+    """One-line usage errors; a closed stdout (--help, --version into `head`) stops quietly."""
+
     def parse_args(self, ctx, args):
         try:
             return super().parse_args(ctx, args)
+        except click.exceptions.NoArgsIsHelpError as exc:
+            raise _NoCommand(exc.message, exc.ctx) from None
         except click.UsageError as exc:
             raise _OneLineUsageError(exc.message, exc.ctx) from None
+        except BrokenPipeError:
+            stdout_closed()
 
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
         except click.UsageError as exc:  # a subcommand's bad option or argument
             raise _OneLineUsageError(exc.format_message(), exc.ctx) from None
+        except BrokenPipeError:
+            stdout_closed()
 
 
 class _ClickLogHandler(logging.Handler):

@@ -65,3 +65,18 @@ def render_options(fn):
     ]):
         fn = opt(fn)
     return fn
+
+
+def check_farm(workers, scheduler) -> None:
+    """--workers / --scheduler before any work (issue #24 items 17, 19): both at once is refused
+    (a LocalCluster of N, or an existing cluster: the scheduler won, --workers was ignored without
+    a word); the scheduler's address is checked and probed (mcpt/farm/cluster.py check_scheduler:
+    empty, not tcp://, a bad port, refused, unknown host, one line each)."""
+    if workers is not None and scheduler is not None:
+        raise click.UsageError(f"--workers {workers} starts a local cluster and --scheduler uses an "
+                               "existing one: give one of them")
+    if scheduler is not None:
+        from mcpt.farm.cluster import check_scheduler, require_dask
+
+        require_dask()
+        check_scheduler(scheduler)

@@ -5,16 +5,20 @@ regular expression can read (numbers only, fixed keys, one space apart)::
 
     mcpt: progress 42.2% passes 27/64 paths/s 1.234e+05 left 12.3s
 
-The interval is 5 s, or ``$MCPT_PROGRESS_INTERVAL`` seconds. ``left`` is ``-`` until a pass has
+The interval is 5 s, or ``$MCPT_PROGRESS_INTERVAL`` seconds (a number >= 0; anything else is
+refused in one line, exit 2). ``left`` is ``-`` until a pass has
 been timed. The paths/s figure counts the passes drawn by this run (a resumed render does not
 count the checkpoint's passes as fast ones).
 """
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import time
+
+from mcpt.errors import McptError
 
 PLAIN_REGEX = (r"^mcpt: progress (?P<percent>\d+\.\d)% passes (?P<done>\d+)/(?P<total>\d+) "
                r"paths/s (?P<rate>\S+) left (?P<left>\S+)$")
@@ -83,8 +87,24 @@ def make(mode: str, quiet: bool, interval: float | None = None):
     The plain interval: ``interval``, else $MCPT_PROGRESS_INTERVAL, else 5 seconds."""
     if quiet or mode == "none":
         return None
-    if interval is None:
-        interval = float(os.environ.get("MCPT_PROGRESS_INTERVAL") or 5.0)
     if mode == "auto":
         mode = "bar" if sys.stdout.isatty() and sys.stderr.isatty() else "plain"
-    return Bar() if mode == "bar" else Plain(interval=interval)
+    if mode == "bar":
+        return Bar()
+    return Plain(interval=_env_interval() if interval is None else interval)
+
+
+def _env_interval() -> float:
+    """$MCPT_PROGRESS_INTERVAL (seconds, finite, >= 0), else 5. A bad value is bad input: one
+    line, exit 2, before any work (issue #24 item 17: 'abc' was an internal error after set-up)."""
+    text = os.environ.get("MCPT_PROGRESS_INTERVAL", "").strip()
+    if not text:
+        return 5.0
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise McptError(f"MCPT_PROGRESS_INTERVAL={text[:40]!r}: expected a number of seconds >= 0 "
+                        "(default 5)")
+    return value

@@ -13,7 +13,7 @@ from mcpt import __version__
 
 from . import progress as progress_mod
 from .group import main, reports_errors
-from .options import finite, positive_finite, render_options
+from .options import check_farm, finite, positive_finite, render_options
 
 
 @main.command()
@@ -30,17 +30,19 @@ from .options import finite, positive_finite, render_options
               help="PNG only: exposure in stops.")
 @click.option("--clamp", type=float, default=None, callback=positive_finite,
               help="BIASED: clamp each sample's largest component to this value (off by default).")
-@click.option("--aov", "aov_text", default=None, metavar="NAME[,NAME...]",
-              help="EXR only: extra layers from the same samples: albedo (albedo.R/G/B), normal "
-                   "(normal.X/Y/Z, world space), depth (depth.Z, distance along the camera ray), "
-                   "variance (variance.R/G/B, of the mean); see 'mcpt info'.")
+@click.option("--aov", "aov_text", multiple=True, metavar="NAME[,NAME...]",
+              help="EXR only (an -o .exr is needed): extra layers from the same samples: albedo "
+                   "(albedo.R/G/B), normal (normal.X/Y/Z, world space), depth (depth.Z, distance "
+                   "along the camera ray), variance (variance.R/G/B, of the mean); repeatable; "
+                   "see 'mcpt info'.")
 @click.option("--denoise", is_flag=True,
               help="BIASED: denoise with Intel Open Image Denoise (needs mcpt[denoise]) fed the "
                    "albedo and normal AOVs; the EXR keeps the raw beauty as raw.R/G/B.")
 @click.option("--time", "time_budget", type=float, default=None, callback=positive_finite,
               metavar="SECONDS",
               help="Wall-time budget: stop at the draw boundary before it runs out and write the "
-                   "image of the passes done (its header states them: mcpt:spp).")
+                   "image of the passes done (its header states them: mcpt:spp); with --checkpoint "
+                   "it also leaves OUTPUT.state.npz for --resume.")
 @click.option("--checkpoint", type=float, default=None, callback=positive_finite, metavar="SECONDS",
               help="Every SECONDS write the image and OUTPUT.state.npz (sums, passes, settings), "
                    "atomically; also on a stop signal and at the end.")
@@ -54,9 +56,11 @@ from .options import finite, positive_finite, render_options
               help="Render passes N .. spp-1 of the seed only (N a multiple of 64): disjoint ranges "
                    "of one seed, rendered anywhere, `mcpt merge` into passes 0 .. spp-1.")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
-              help="Render on a Dask LocalCluster of N worker processes (needs mcpt[farm]).")
+              help="Render on a Dask LocalCluster of N worker processes (needs mcpt[farm]); "
+                   "not with --scheduler.")
 @click.option("--scheduler", default=None, metavar="tcp://HOST:8786",
-              help="Render on an existing Dask cluster (needs mcpt[farm]).")
+              help="Render on an existing Dask cluster (needs mcpt[farm]); its address is probed "
+                   "first (tcp:// only).")
 @click.option("--progress", "progress_mode", type=click.Choice(["auto", "bar", "plain", "none"]),
               default="auto", show_default=True,
               help="'plain': one regex-friendly line every few seconds (default when stdout is not "
@@ -86,10 +90,16 @@ def render(scene_file, spp, bounces, seed, resolution, gl_backend, features_mode
             raise click.BadParameter("only a glTF scene (.gltf, .glb) names its cameras",
                                      param_hint="--camera")
         overrides = (*overrides, f"camera={camera}")  # the glTF reader's option (mcpt/scene/gltf)
+    check_farm(workers, scheduler)
+    aovs = parse_aovs(aov_text)  # repeated --aov accumulate (issue #24 item 19: the last one won)
+    if aovs and not any(str(o).lower().endswith(".exr") for o in outputs):
+        # issue #24 item 19: the AOVs were computed and dropped (a PNG has no layers)
+        raise click.BadParameter(f"AOV layers are written to an EXR only; add -o NAME.exr (outputs: "
+                                 f"{', '.join(outputs)})", param_hint="--aov")
     prog = progress_mod.make(progress_mode, quiet)
     opts = Options(list(outputs), spp=spp, bounces=bounces, seed=seed, resolution=resolution,
                    gl_backend=gl_backend, features_mode=features_mode, sampler=sampler, clamp=clamp,
-                   exposure=exposure, aovs=parse_aovs(aov_text), denoise=denoise,
+                   exposure=exposure, aovs=aovs, denoise=denoise,
                    time_budget=time_budget, checkpoint=checkpoint, resume=resume,
                    overwrite=overwrite,
                    first_pass=first_pass, overrides=tuple(overrides), workers=workers,

@@ -18,11 +18,13 @@ from .overrides import blame
 def validated(data: dict, lines: dict, path: Path, keys: list) -> Scene:
     """The Scene of mapped ``data`` (``lines``: key path -> source line, may be empty; ``keys``:
     parsed ``-D KEY=VALUE`` overrides of the mapped data). Raises SceneError (one line)."""
-    named = []
+    named, original = [], data
     if keys:
         data, named = apply_overrides(data, keys, str(path))
+    context = {"base_dir": path.parent.resolve()}
     try:
-        scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
+        scene = Scene.model_validate(data, context=context)
     except ValidationError as exc:
-        raise blame(to_scene_error(exc, str(path), lines, Scene), named, str(path)) from None
+        raise blame(to_scene_error(exc, str(path), lines, Scene), named, str(path), original,
+                    lambda d: Scene.model_validate(d, context=context)) from None
     return scene.located(path, lines)

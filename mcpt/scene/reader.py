@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import gc
-import re
 from pathlib import Path
 
 import yaml
@@ -13,6 +12,7 @@ from .diagnostics import KeyPath, SceneError, dotted, to_scene_error, type_name
 from .model import Scene
 from .overrides import apply as apply_overrides
 from .overrides import blame
+from .yaml12 import install as install_yaml12
 
 #: Largest scene file read (bytes): scenes are small, meshes live in their own files.
 MAX_FILE_BYTES = 16 * 2**20
@@ -135,11 +135,7 @@ class _SceneLoader(_Base):
         return key_node.value if isinstance(key_node, yaml.ScalarNode) else f"<{key_node.id} key>"
 
 
-# YAML 1.1 (PyYAML) needs a dot in a float and a sign in its exponent, so "1e3" and "1.0e3" would
-# be *strings*; YAML 1.2 and every human read them as numbers. Integers still win for "123"
-# because the int resolver was registered first.
-_FLOAT_12 = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$")
-_SceneLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+.0123456789"))
+install_yaml12(_SceneLoader)  # 1e3 is a float; a 5000-digit integer a located error (yaml12.py)
 
 
 def parse_scene(text: str, path: str | Path, overrides=()) -> Scene:
@@ -178,13 +174,15 @@ def parse_scene(text: str, path: str | Path, overrides=()) -> Scene:
             file, loader.lines.get(()), "",
             f"the top level must be a mapping (camera:, meshes:, ...), got {type_name(data)}",
         )
-    named = []
+    named, original = [], data
     if overrides:
         data, named = apply_overrides(data, overrides, file)
+    context = {"base_dir": path.parent.resolve()}
     try:
-        scene = Scene.model_validate(data, context={"base_dir": path.parent.resolve()})
+        scene = Scene.model_validate(data, context=context)
     except ValidationError as exc:
-        raise blame(to_scene_error(exc, file, loader.lines, Scene), named, file) from None
+        raise blame(to_scene_error(exc, file, loader.lines, Scene), named, file, original,
+                    lambda d: Scene.model_validate(d, context=context)) from None
     return scene.located(path, loader.lines)
 
 
