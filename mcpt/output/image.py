@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -128,19 +129,11 @@ def _read(path: str | Path, pick, **kw):
     if magic != EXR_MAGIC:
         kind = " (a PNG)" if magic == b"\x89PNG" else " (empty)" if not magic else ""
         raise ImageError(f"{path}: not an EXR file{kind}")
-    for stream in (sys.stdout, sys.stderr):
-        stream.flush()
     with tempfile.TemporaryFile() as sink:
-        saved = os.dup(1), os.dup(2)
         try:
-            try:
-                os.dup2(sink.fileno(), 1)
-                os.dup2(sink.fileno(), 2)
+            with _collected(sink):
                 with OpenEXR.File(str(path), **kw) as f:
                     return pick(f)
-            finally:
-                os.dup2(saved[0], 1)
-                os.dup2(saved[1], 2)
         except KeyError:  # pick's: a channel the caller needs is missing (its error to word)
             raise
         except Exception as exc:  # noqa: BLE001 - OpenEXR raises varied types on damaged files
@@ -148,9 +141,28 @@ def _read(path: str | Path, pick, **kw):
             said = [line for line in sink.read().decode(errors="replace").splitlines() if line.strip()]
             reason = said[0].removeprefix(f"{path}: ") if said else str(exc)
             raise ImageError(f"{path}: not a readable EXR ({' '.join(reason.split())})") from None
-        finally:
-            for fd in saved:
-                os.close(fd)
+
+
+@contextmanager
+def _collected(sink):
+    """File descriptors 1 and 2 (what C and C++ code prints) written to ``sink`` inside the block,
+    restored after; one that is not open is left alone."""
+    for stream in (sys.stdout, sys.stderr):
+        if stream is not None:
+            stream.flush()
+    saved = {}
+    try:
+        for fd in (1, 2):
+            try:
+                saved[fd] = os.dup(fd)
+            except OSError:
+                continue
+            os.dup2(sink.fileno(), fd)
+        yield
+    finally:
+        for fd, copy in saved.items():
+            os.dup2(copy, fd)
+            os.close(copy)
 
 
 def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
