@@ -160,7 +160,7 @@ class _Loop:
             acc.spp = opts.first_pass  # passes before it belong to another render of this seed
         if opts.resume:
             acc = st.resume(self.state_file, self.record, len(r.targets), self.spp,
-                            r.samples_per_draw)
+                            r.samples_per_draw, opts.chunk)
         return acc
 
     def passes_here(self) -> None:
@@ -184,15 +184,15 @@ class _Loop:
     def save_checkpoint(self, final: bool = False) -> None:
         """The state file and the images. A state or (before the end) an image that cannot be
         written is a warning and the render goes on (issue #24: a full disk used to end hours of
-        passes with nothing written); the final images fail as any render's would."""
+        passes with nothing written); the final images fail as any render's would. A finished
+        render writes its images first (issue #24 item 5: on a nearly full disk the last state
+        file took the room of the final image, left at an earlier checkpoint's passes)."""
         self.control.last_checkpoint = time.perf_counter()
-        try:
-            with self.signals.writing():
-                st.save(self.state_file, self.acc, {**self.record, "spp_requested": self.spp})
-            self.saved.append(self.state_file)
-        except OSError as exc:
-            log.warning("checkpoint %s not written (%s); the render goes on", self.state_file,
-                        exc.strerror or exc)
+        if final and self.acc.spp >= self.spp:
+            self._write_final()
+            self._save_state()
+            return
+        self._save_state()
         try:
             with self.signals.writing():
                 self._write()
@@ -201,6 +201,32 @@ class _Loop:
                 raise
             log.warning("checkpoint images not written (%s); the render goes on",
                         " ".join(str(exc).split()))
+
+    def _save_state(self) -> None:
+        try:
+            with self.signals.writing():
+                st.save(self.state_file, self.acc, {**self.record, "spp_requested": self.spp})
+            self.saved.append(self.state_file)
+        except OSError as exc:
+            log.warning("checkpoint %s not written (%s); the render goes on", self.state_file,
+                        exc.strerror or exc)
+
+    def _write_final(self) -> None:
+        """The images of a finished render. Where they cannot be written beside the state of an
+        earlier checkpoint (a full disk, most likely), that state (fewer passes than the image
+        holds) makes room, and they are written once more; a second failure is the render's."""
+        try:
+            with self.signals.writing():
+                self._write()
+            return
+        except (OSError, ImageError) as exc:
+            if not self.state_file.is_file():
+                raise
+            log.warning("final image not written (%s); removing the earlier checkpoint %s to make "
+                        "room for it", " ".join(str(exc).split()), self.state_file)
+        self.state_file.unlink()
+        with self.signals.writing():
+            self._write()
 
     def finish(self) -> Outcome:
         """The last checkpoint or image, and what the render did."""

@@ -49,7 +49,54 @@ def _record(header: dict, path) -> dict:
     missing = [k for k in (*COMPARED, "spp", "seed") if k not in rec]
     if missing:
         raise MergeError(f"{path}: not an mcpt render of this version (header lacks mcpt:{missing[0]})")
+    for key, value in rec.items():  # mcpt writes every mcpt:* key as text (output/image.py)
+        if not isinstance(value, str):
+            raise MergeError(f"{path}: header key mcpt:{key} holds {type(value).__name__} {value!r}, "
+                             "not the text mcpt writes")
+    _check_numbers(rec, path)
     return rec
+
+
+def _whole(rec: dict, key: str, path, least: int, text: str | None = None) -> int:
+    """The number mcpt:``key`` (or ``text``, one entry of its list) holds: decimal digits, >= least
+    (issue #24 item 16: "abc", "1e3" were internal errors, -8 spp an image of inf and NaN)."""
+    value = rec[key] if text is None else text
+    if not (value.isascii() and value.isdigit()) or int(value) < least:
+        what = "a whole number" if text is None else "a list of whole numbers"
+        raise MergeError(f"{path}: header key mcpt:{key} is {rec[key]!r}, not {what} >= {least}")
+    return int(value)
+
+
+def _check_numbers(rec: dict, path) -> None:
+    """The counts the merge computes with, checked before any arithmetic."""
+    for key, least in (("spp", 1), ("width", 1), ("height", 1), ("first_pass", 0)):
+        if key in rec:
+            _whole(rec, key, path, least)
+    if _whole(rec, "seed", path, 0) >= 2**63:
+        raise MergeError(f"{path}: header key mcpt:seed is {rec['seed']!r}, above the largest seed (2^63 - 1)")
+    if "seeds" in rec:
+        seeds = rec["seeds"].split()
+        lists = {"seeds": seeds, "merged_spp": rec.get("merged_spp", "").split(),
+                 "merged_first_pass": rec.get("merged_first_pass", " ".join("0" * len(seeds))).split()}
+        if len({len(v) for v in lists.values()}) != 1:
+            raise MergeError(f"{path}: a merged input whose mcpt:seeds, mcpt:merged_spp and "
+                             "mcpt:merged_first_pass disagree in length")
+        for key, least in (("seeds", 0), ("merged_spp", 1), ("merged_first_pass", 0)):
+            for text in lists[key]:
+                _whole(rec, key, path, least, text)
+        if sum(int(n) for n in lists["merged_spp"]) != int(rec["spp"]):
+            raise MergeError(f"{path}: header key mcpt:merged_spp ({rec.get('merged_spp')}) does not "
+                             f"add up to mcpt:spp ({rec['spp']})")
+
+
+def _check_pixels(channels: dict, rec: dict, path) -> None:
+    """Every channel as large as the header says (issue #24 item 16: 16x16 pixels under a 32x32
+    header was a broadcast error)."""
+    expected = (int(rec["height"]), int(rec["width"]))
+    for name, pixels in channels.items():
+        if pixels.shape != expected:
+            raise MergeError(f"{path}: channel {name} holds {'x'.join(map(str, pixels.shape[::-1]))} "
+                             f"pixels, its header says {rec['width']}x{rec['height']} (mcpt:width, mcpt:height)")
 
 
 def _beauty(channels: dict, rec: dict, path) -> np.ndarray:
@@ -82,10 +129,13 @@ def _read_all(paths) -> tuple[list, list]:
             channels, header = read_exr_channels(path, with_header=True)
         except FileNotFoundError:
             raise MergeError(f"{path}: no such file") from None
-        except Exception as exc:  # OpenEXR reports unreadable files with varied exceptions
+        except McptError:  # read_exr_channels's one line (ImageError)
+            raise
+        except Exception as exc:  # noqa: BLE001 - other read failures (a folder, permissions)
             raise MergeError(f"{path}: not a readable EXR ({' '.join(str(exc).split())})") from None
-        files.append(channels)
         records.append(_record(header, path))
+        _check_pixels(channels, records[-1], path)
+        files.append(channels)
     return files, records
 
 
@@ -118,12 +168,9 @@ def pass_ranges(rec: dict) -> list[tuple[str, int, int]]:
     if "seeds" not in rec:
         lo = int(rec.get("first_pass", 0))
         return [(rec["seed"], lo, lo + int(rec["spp"]))]
-    seeds = rec["seeds"].split()
+    seeds = rec["seeds"].split()  # checked by _record: equal lengths, whole numbers
     spps = [int(n) for n in rec.get("merged_spp", "").split()]
     firsts = [int(n) for n in rec.get("merged_first_pass", " ".join("0" * len(seeds))).split()]
-    if not len(seeds) == len(spps) == len(firsts):
-        raise MergeError("a merged input whose mcpt:seeds, mcpt:merged_spp and "
-                         "mcpt:merged_first_pass disagree in length")
     return [(seed, lo, lo + n) for seed, n, lo in zip(seeds, spps, firsts)]
 
 

@@ -14,7 +14,9 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -108,6 +110,8 @@ def check_state_path(path: str | Path, *, resume: bool, overwrite: bool) -> Path
     is replaced only when asked (``--overwrite``): a render without ``--resume`` would otherwise
     replace hours of passes with its own."""
     path = Path(path)
+    if path.exists():
+        _regular(path)  # a FIFO would block the set-up when opened (issue #24 item 9)
     if path.exists() and not resume and not overwrite:
         raise StateError(f"{path}: a checkpoint is already there: --resume carries it on, "
                          "--overwrite starts again and replaces it")
@@ -151,40 +155,147 @@ def save(path: str | Path, acc: Accumulator, record: dict) -> None:
         raise
 
 
-def load(path: str | Path) -> tuple[Accumulator, dict]:
-    path = Path(path)
+def _regular(path: Path) -> int:
+    """The size of the state file; one that is not a regular file is refused before it is opened
+    (issue #24 item 9: opening a FIFO blocked the set-up, and a stop signal did not end it)."""
     try:
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(bytes(z["meta"]).decode())
-            complete = np.array(z["complete"], np.float64)
-            partial = np.array(z["partial"], np.float32) if "partial" in z.files else None
+        info = os.stat(path)
     except FileNotFoundError:
         raise StateError(f"{path}: no checkpoint to resume (render with --checkpoint SECONDS first)") from None
-    except (OSError, ValueError, KeyError) as exc:
-        raise StateError(f"{path}: not a readable mcpt checkpoint ({exc})") from None
-    if meta.get("format") != FORMAT:
+    except OSError as exc:
+        raise StateError(f"{path}: cannot read the checkpoint: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = ("a folder" if stat.S_ISDIR(info.st_mode) else "a FIFO" if stat.S_ISFIFO(info.st_mode)
+                else "a socket" if stat.S_ISSOCK(info.st_mode) else "a device")
+        raise StateError(f"{path}: is {kind}, not a checkpoint file")
+    return info.st_size
+
+
+@contextmanager
+def _reading(path: Path):
+    """Whatever numpy or zipfile raise on a truncated or altered file (EOFError, BadZipFile, a bad
+    CRC, ...) is one line naming the file (issue #24 item 15: they were internal errors)."""
+    try:
+        yield
+    except McptError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the readers raise varied types on damaged files
+        what = " ".join(str(exc).split()) or type(exc).__name__
+        raise StateError(f"{path}: a damaged checkpoint (truncated or altered: {what})") from None
+
+
+def _damaged(path: Path, what: str) -> StateError:
+    return StateError(f"{path}: a damaged checkpoint: {what}")
+
+
+def _whole(meta: dict, key: str, least: int, path: Path) -> int:
+    value = meta.get(key)
+    if type(value) is not int or value < least:  # noqa: E721 - bool and float are refused
+        raise _damaged(path, f"{key} is {json.dumps(value)}, not a whole number >= {least}")
+    return value
+
+
+def _meta(z, path: Path) -> dict:
+    """The JSON record, checked before any sums are read."""
+    if "meta" not in z.files:
+        raise _damaged(path, "it lacks its record (meta)")
+    if z.zip.getinfo("meta.npy").file_size > 1 << 20:
+        raise _damaged(path, "its record (meta) is over 1 MiB")
+    raw = z["meta"]
+    if raw.dtype != np.uint8 or raw.ndim != 1:
+        raise _damaged(path, "its record (meta) is not text")
+    try:
+        meta = json.loads(raw.tobytes().decode())
+    except (UnicodeDecodeError, ValueError):
+        raise _damaged(path, "its record (meta) is not JSON") from None
+    if not isinstance(meta, dict):
+        raise _damaged(path, "its record (meta) is not a JSON object")
+    if meta.get("format") != FORMAT or type(meta.get("format")) is not int:  # noqa: E721
         raise StateError(f"{path}: checkpoint format {meta.get('format')} is not {FORMAT}")
-    acc = Accumulator(complete, int(meta["done"]), partial, int(meta["chunk"]))
-    return acc, meta
+    _whole(meta, "done", 0, path)
+    _whole(meta, "chunk", 1, path)
+    return meta
+
+
+def _header(z, name: str, path: Path) -> tuple[tuple, np.dtype]:
+    """The shape and type of one array, from its npy header (nothing of its data is read)."""
+    if f"{name}.npy" not in z.zip.namelist():
+        raise _damaged(path, f"it lacks the {name} sums")
+    fmt = np.lib.format
+    with z.zip.open(f"{name}.npy") as f:
+        version = fmt.read_magic(f)
+        if version not in ((1, 0), (2, 0)):
+            raise _damaged(path, f"{name} is in npy format {version}")
+        shape, _, kind = (fmt.read_array_header_1_0 if version == (1, 0) else fmt.read_array_header_2_0)(f)
+    return tuple(shape), kind
+
+
+def _array(z, name: str, dtype, shape: tuple, path: Path) -> np.ndarray:
+    """One array of sums: its type and shape checked from its header before its data is read (a
+    crafted shape allocates nothing), then its values finite (issue #24 item 15). ``shape``: that
+    of the render's sums, its first entry (the targets) None for any."""
+    found, kind = _header(z, name, path)
+    if kind != np.dtype(dtype):
+        raise _damaged(path, f"{name} holds {kind} values, mcpt writes {np.dtype(dtype)}")
+    if len(found) != 4 or found[1:] != shape[1:] or found[0] < 1:
+        expected = tuple("any" if n is None else n for n in shape)
+        raise _damaged(path, f"{name} has shape {found}, this render's sums {expected}")
+    if shape[0] is not None and found[0] != shape[0]:  # a checkpoint from before AOVs were recorded
+        raise ResumeError(f"{path}: cannot resume: it holds {found[0]} accumulation targets, "
+                          f"this render {shape[0]} (other --aov)")
+    data = z[name]
+    if not np.isfinite(data).all():
+        raise _damaged(path, f"{name} holds NaN or infinite sums")
+    return data
+
+
+def load(path: str | Path, check=None, targets: int | None = None) -> tuple[Accumulator, dict]:
+    """The checkpoint at ``path``, every field checked (issue #24 item 15: a damaged or crafted
+    file was an internal error or a wrong image). ``check(meta)``: the caller's comparisons, made
+    before the sums are read; ``targets``: the accumulation targets expected (default: as held)."""
+    path = Path(path)
+    if _regular(path) == 0:
+        raise StateError(f"{path}: not an mcpt checkpoint (the file is empty)")
+    with _reading(path):
+        with open(path, "rb") as f:
+            if f.read(4) != b"PK\x03\x04":  # numpy would try it as a pickle (and say so)
+                raise StateError(f"{path}: not an mcpt checkpoint (not a zip archive of arrays)")
+        with np.load(path, allow_pickle=False) as z:
+            meta = _meta(z, path)
+            if check is not None:
+                check(meta)
+            shape = (targets, _whole(meta, "height", 1, path), _whole(meta, "width", 1, path), 4)
+            complete = _array(z, "complete", np.float64, shape, path)
+            partial = (_array(z, "partial", np.float32, complete.shape, path)
+                       if "partial" in z.files else None)
+    done, chunk = meta["done"], meta["chunk"]
+    # Accumulator.add's rule: the passes after the last whole chunk are the partial sums, only those.
+    if (partial is None) != (done % chunk == 0):
+        raise _damaged(path, f"done is {done} passes in chunks of {chunk} but "
+                             + ("it has no partial sums" if partial is None else "it holds partial sums"))
+    return Accumulator(complete, done, partial, chunk), meta
 
 
 def resume(path: str | Path, record: dict, targets: int, spp: int,
-           samples_per_draw: int) -> Accumulator:
+           samples_per_draw: int, chunk: int | None = None) -> Accumulator:
     """The checkpoint at ``path``, checked against this render (``record``: its settings(),
-    ``targets``: its accumulation targets, ``spp``: the samples per pixel asked for) and put back
-    on the draw grid (Accumulator.rewind_to_draw_grid); :class:`ResumeError` names a difference."""
-    acc, found = load(path)
-    # aov_targets is recorded only when there are some: compare it both ways.
-    both = [{"aov_targets": d.get("aov_targets", "none")} for d in (record, found)]
-    why = mismatch(record, found) or mismatch(*both)
-    if why:
-        raise ResumeError(f"{path}: cannot resume: {why}")
-    if acc.complete.shape[0] != targets:  # a checkpoint from before AOVs were recorded
-        raise ResumeError(f"{path}: cannot resume: it holds {acc.complete.shape[0]} "
-                          f"accumulation targets, this render {targets} (other --aov)")
-    if acc.spp > spp:
-        raise ResumeError(f"{path}: cannot resume: the checkpoint has {acc.spp} passes, "
-                          f"more than the {spp} asked for")
+    ``targets``: its accumulation targets, ``spp``: the samples per pixel asked for, ``chunk``:
+    its passes per read-back) and put back on the draw grid (Accumulator.rewind_to_draw_grid);
+    :class:`ResumeError` names a difference."""
+
+    def check(found: dict) -> None:  # before the sums are read: a refusal names the setting
+        # aov_targets is recorded only when there are some: compare it both ways.
+        both = [{"aov_targets": d.get("aov_targets", "none")} for d in (record, found)]
+        why = mismatch(record, found) or mismatch(*both)
+        if not why and chunk is not None and found["chunk"] != chunk:  # it decides the float64 sums
+            why = f"chunk is {chunk} in this render but {found['chunk']} in the checkpoint"
+        if why:
+            raise ResumeError(f"{path}: cannot resume: {why}")
+        if found["done"] > spp:
+            raise ResumeError(f"{path}: cannot resume: the checkpoint has {found['done']} passes, "
+                              f"more than the {spp} asked for")
+
+    acc, _ = load(path, check, targets)
     if acc.spp < spp:
         acc.rewind_to_draw_grid(samples_per_draw)
     return acc

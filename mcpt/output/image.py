@@ -9,7 +9,9 @@ only when complete (rename is atomic within a file system).
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -112,24 +114,76 @@ def write_exr(path: str | Path, rgb: np.ndarray, metadata: dict | None = None,
     _atomic(p, lambda tmp: OpenEXR.File(dict(header), channels).write(tmp))
 
 
-def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
+EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+
+def _read(path: str | Path, pick, **kw):
+    """``pick(f)`` of the OpenEXR file at ``path``. A file that is not an EXR, or one OpenEXR cannot
+    read, is an :class:`ImageError` of one line (issue #24 item 16): OpenEXR prints its own
+    reasons from C++ on the process's stdout and stderr, so these are collected during the read
+    (both descriptors restored after) and the first of them names what is wrong."""
     import OpenEXR
 
-    with OpenEXR.File(str(path)) as f:
+    with open(path, "rb") as f:  # FileNotFoundError as it is: the caller words it
+        magic = f.read(4)
+    if magic != EXR_MAGIC:
+        kind = " (a PNG)" if magic == b"\x89PNG" else " (empty)" if not magic else ""
+        raise ImageError(f"{path}: not an EXR file{kind}")
+    with tempfile.TemporaryFile() as sink:
+        try:
+            with _collected(sink):
+                with OpenEXR.File(str(path), **kw) as f:
+                    return pick(f)
+        except KeyError:  # pick's: a channel the caller needs is missing (its error to word)
+            raise
+        except Exception as exc:  # noqa: BLE001 - OpenEXR raises varied types on damaged files
+            sink.seek(0)
+            said = [line for line in sink.read().decode(errors="replace").splitlines() if line.strip()]
+            reason = said[0].removeprefix(f"{path}: ") if said else str(exc)
+            raise ImageError(f"{path}: not a readable EXR ({' '.join(reason.split())})") from None
+
+
+@contextmanager
+def _collected(sink):
+    """File descriptors 1 and 2 (what C and C++ code prints) written to ``sink`` inside the block,
+    restored after; one that is not open is left alone."""
+    for stream in (sys.stdout, sys.stderr):
+        if stream is not None:
+            stream.flush()
+    saved = {}
+    try:
+        for fd in (1, 2):
+            try:
+                saved[fd] = os.dup(fd)
+            except OSError:
+                continue
+            os.dup2(sink.fileno(), fd)
+        yield
+    finally:
+        for fd, copy in saved.items():
+            os.dup2(copy, fd)
+            os.close(copy)
+
+
+def read_exr(path: str | Path) -> tuple[np.ndarray, dict]:
+    def pick(f):
         ch = f.channels()
         if "RGB" not in ch and "RGBA" in ch:  # a transparent film's image: its colour
             return np.array(ch["RGBA"].pixels[..., :3], np.float32), dict(f.header())
         return np.array(ch["RGB"].pixels, np.float32), dict(f.header())
 
+    return _read(path, pick)
+
 
 def read_exr_channels(path: str | Path, with_header: bool = False):
     """Every channel of an EXR by its full name (``R``, ``albedo.G``, ``depth.Z``, ...); with
     ``with_header``, ``(channels, header)``."""
-    import OpenEXR
 
-    with OpenEXR.File(str(path), separate_channels=True) as f:
+    def pick(f):
         channels = {k: np.array(c.pixels, np.float32) for k, c in f.channels().items()}
         return (channels, dict(f.header())) if with_header else channels
+
+    return _read(path, pick, separate_channels=True)
 
 
 def write_png(path: str | Path, rgb: np.ndarray, exposure: float = 0.0, alpha: np.ndarray | None = None) -> None:
