@@ -206,7 +206,6 @@ def test_repeated_aov_accumulates(folder):
     assert {"albedo.R", "albedo.G", "albedo.B", "depth.Z"} <= set(read_exr_channels(folder / "a.exr"))
 
 
-@pytest.mark.xfail(reason="needs the mcpt/farm/state.py mismatch() change reported by h-cli", strict=False)
 def test_resume_with_aovs_on_a_plain_checkpoint_says_so(folder):
     assert render("--spp", "2", "--checkpoint", "100", "-o", "a.exr").exit_code == 0
     line = one_line(render("--spp", "4", "--resume", "--aov", "depth", "-o", "a.exr"))
@@ -234,8 +233,6 @@ def test_mcpt_alone_puts_the_error_on_its_own_line():
     assert sum("see 'mcpt --help'" in line for line in lines) == 1
 
 
-@pytest.mark.xfail(reason="needs the temporary-name change in mcpt/output/image.py reported by h-cli",
-                   strict=False)
 def test_output_name_of_250_characters_is_written(folder):
     name = "n" * 246 + ".exr"  # 250 characters: a valid name, too long with mkstemp's affixes
     result = render("-o", name)

@@ -90,6 +90,9 @@ def mismatch(expected: dict, found: dict, keys=None, here: str = "this render",
     """'seed is 4 in this render but 3 in the checkpoint' for the first setting that differs."""
     for k in keys or expected:
         if str(expected.get(k)) != str(found.get(k)):
+            if k == "aov_targets":  # issue #24 item 19: a plain checkpoint is not "another version"
+                had = f"with the AOVs {found[k]}" if found.get(k) else "without AOVs"
+                return f"{there} was rendered {had}, {here} asks for {expected.get(k) or 'none'}"
             if k not in found and expected.get(k) is not None:
                 return f"{there} records no {k} (written by another version of mcpt)"
             if k == "scene_hash":
@@ -117,7 +120,7 @@ def check_state_path(path: str | Path, *, resume: bool, overwrite: bool) -> Path
                          "--overwrite starts again and replaces it")
     folder = path.parent if str(path.parent) else Path(".")
     try:
-        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        fd, probe = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".tmp", dir=folder)
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
@@ -133,7 +136,7 @@ def save(path: str | Path, acc: Accumulator, record: dict) -> None:
     a signal included, so the previous checkpoint survives intact)."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".tmp", dir=folder)
     os.close(fd)
     # "done": the samples per pixel summed (Accumulator.spp), under the name format 1 gave it.
     meta = {"format": FORMAT, "done": acc.spp, "chunk": acc.chunk, **record}

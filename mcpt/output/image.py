@@ -39,7 +39,7 @@ def check_output_path(path: str | Path) -> Path:
         parent.mkdir(parents=True, exist_ok=True)
         # Permission bits do not tell (root ignores them; read-only mounts): create and remove
         # a temporary file where the image will be written.
-        fd, probe = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".check", dir=parent)
+        fd, probe = tempfile.mkstemp(prefix=f".{p.name[:200]}.", suffix=".check", dir=parent)
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
@@ -71,7 +71,7 @@ def _atomic(path: Path, write) -> None:
     file, and an image already at ``path`` untouched."""
     folder = path.parent if str(path.parent) else Path(".")
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=path.suffix, dir=folder)
     except OSError as exc:
         raise ImageError(f"{path}: cannot write in {folder}: {exc.strerror or exc}") from None
     os.close(fd)
