@@ -239,6 +239,8 @@ TRI = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
          "face vertex index 1.5 is not an integer"),
         ("line.ply", HEADER.format(fmt="ascii", v=3, f=1).encode() + b"0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
          "face 0 has 2 vertex indices: contains point or line primitives"),
+        ("neglen.ply", HEADER.replace("list uchar", "list int").format(fmt="binary_little_endian", v=3, f=2).encode()
+         + TRI + struct.pack("<4i", 3, 0, 1, 2) + struct.pack("<i", -3), "row 1: negative list length -3"),
         ("badlen.ply", HEADER.format(fmt="ascii", v=3, f=1).encode() + b"0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n",
          "list length -3 is not a count"),
         ("asciitrunc.ply", HEADER.format(fmt="ascii", v=3, f=2).encode() + b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0\n",

@@ -17,6 +17,7 @@ vertices faces use, identical vertices (position, normal, UV) joined, in file or
 
 from __future__ import annotations
 
+import operator
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,12 +43,9 @@ class PlyError(MeshError):
 
 @dataclass
 class Prop:
-    """A property: ``type`` is the numpy code of its value(s), ``count`` that of a list's length
-    (None for a scalar)."""
-
     name: str
-    type: str
-    count: str | None = None
+    type: str  # numpy code of the value(s)
+    count: str | None = None  # numpy code of a list's length; None: a scalar
 
 
 @dataclass
@@ -65,9 +63,7 @@ class Header:
 
 
 @dataclass
-class Table:
-    """One element's data: scalars by name (R,), lists by name as (lengths (R,), flat values)."""
-
+class Table:  # one element's data: scalars by name (R,), lists by name as (lengths (R,), flat values)
     scalars: dict[str, np.ndarray] = field(default_factory=dict)
     lists: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
@@ -233,38 +229,50 @@ def _binary_element(path: Path, data: bytes, pos: int, el: Element, order: str) 
 
 
 def _binary_rows(path: Path, data: bytes, pos: int, el: Element, order: str) -> tuple[Table, int]:
-    """Row by row: lists of varying lengths (polygons of mixed sizes)."""
-    values: list[list] = [[] for _ in el.props]
-    lengths: list[list[int]] = [[] for _ in el.props]
-    row = 0
+    """Lists of varying lengths (polygons of mixed sizes): a loop finds where each property of each
+    row starts (1M mixed triangles and quads: 2.2 s against 3.9-5.8 s unpacking every value, 2 loaded
+    cores), numpy gathers the values."""
+    size = [np.dtype(p.count or p.type).itemsize for p in el.props]
+    item = [np.dtype(p.type).itemsize for p in el.props]
+    readers = [None if p.count is None else _count_reader(order + p.count) for p in el.props]
+    starts, row, end, props = [], 0, len(data), range(len(el.props))
     try:
         for row in range(el.count):
-            for i, p in enumerate(el.props):
-                if p.count is None:
-                    values[i].append(struct.unpack_from(order + _STRUCT[p.type], data, pos)[0])
-                    pos += np.dtype(p.type).itemsize
-                    continue
-                (n,) = struct.unpack_from(order + _STRUCT[p.count], data, pos)
+            for i in props:
+                starts.append(pos)
+                n = 0 if readers[i] is None else readers[i](data, pos)
                 if n < 0:
                     raise PlyError(f"{path}: element {el.name!r} row {row}: negative list length {n}")
-                pos += np.dtype(p.count).itemsize
-                values[i].extend(struct.unpack_from(f"{order}{n}{_STRUCT[p.type]}", data, pos))
-                lengths[i].append(n)
-                pos += n * np.dtype(p.type).itemsize
-    except struct.error:
+                pos += size[i] + n * item[i]
+            if pos > end:
+                raise _truncated(path, el, row)
+    except (struct.error, IndexError):
         raise _truncated(path, el, row) from None
-    return _table(el, values, lengths), pos
-
-
-def _table(el: Element, values: list, lengths: list) -> Table:
+    buf, at = np.frombuffer(data, np.uint8), np.array(starts, np.int64).reshape(el.count, len(el.props))
     table = Table()
     for i, p in enumerate(el.props):
-        column = np.array(values[i], dtype=p.type)
+        first = _gather(buf, at[:, i], size[i], order + (p.count or p.type))
         if p.count is None:
-            table.scalars.setdefault(p.name, column)
-        else:
-            table.lists.setdefault(p.name, (np.array(lengths[i], np.int64), column))
-    return table
+            table.scalars.setdefault(p.name, first)
+            continue
+        n = first.astype(np.int64)
+        k = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+        table.lists.setdefault(p.name, (n, _gather(buf, np.repeat(at[:, i] + size[i], n) + k * item[i], item[i],
+                                                   order + p.type)))
+    return table, pos
+
+
+def _count_reader(code: str):
+    """``read(data, offset)`` -> a list length of numpy type ``code`` (bytes indexing for uchar: fastest)."""
+    if code[1:] == "u1":
+        return operator.getitem
+    unpack = struct.Struct(code[0] + _STRUCT[code[1:]]).unpack_from
+    return lambda data, offset: unpack(data, offset)[0]
+
+
+def _gather(buf: np.ndarray, offsets: np.ndarray, size: int, dtype: str) -> np.ndarray:
+    """The values of type ``dtype`` (``size`` bytes) at byte ``offsets`` of ``buf``."""
+    return buf[offsets[:, None] + np.arange(size)].view(dtype).ravel()
 
 
 def _ascii_element(path: Path, nums: np.ndarray, pos: int, el: Element, _order) -> tuple[Table, int]:
