@@ -19,7 +19,11 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import logging
 import os
+import signal
+import subprocess
+import sys
 from dataclasses import dataclass, field
 
 import moderngl
@@ -96,6 +100,11 @@ class GLContext:
 
 
 def _egl() -> GLContext:
+    # Mesa's libEGL prints its own lines on stderr ("libEGL warning: egl: failed to create dri2
+    # screen") before eglInitialize fails; the GLError below says it in one line (issue #24 item 18).
+    # -vv (debug logging) keeps them, as does an EGL_LOG_LEVEL the user sets.
+    if not logging.getLogger("mcpt").isEnabledFor(logging.DEBUG):
+        os.environ.setdefault("EGL_LOG_LEVEL", "fatal")
     try:
         ctx = moderngl.create_standalone_context(backend="egl", require=420)
     except Exception as exc:  # glcontext raises plain Exceptions with varied texts
@@ -115,8 +124,68 @@ _OSMESA_MAJOR, _OSMESA_MINOR = 0x36, 0x37
 _GL_UNSIGNED_BYTE = 0x1401
 
 
+#: What a probe process runs (stdlib only: `python -I -S` starts fast): create and make current the
+#: context _osmesa creates. Exit 1: no GL 4.2+ core context; killed by a signal: Mesa crashed.
+_PROBE = """
+import ctypes, sys
+lib = ctypes.CDLL(sys.argv[1])
+lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
+lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
+lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int]
+for major, minor in ((4, 5), (4, 3), (4, 2)):
+    handle = lib.OSMesaCreateContextAttribs((ctypes.c_int * 11)(%d, %d, %d, %d, %d, major, %d, minor, 0, 0, 0), None)
+    if handle:
+        sys.exit(0 if lib.OSMesaMakeCurrent(handle, (ctypes.c_ubyte * 64)(), %d, 4, 4) else 1)
+sys.exit(1)
+"""
+_probed: dict[tuple, str | None] = {}
+
+
+def _probe_osmesa(path: str) -> None:
+    """Raise GLError if creating the OSMesa context would kill this process (issue #24 item 18).
+
+    With GALLIUM_DRIVER naming a driver that this Mesa lacks (``bogus``), OSMesaCreateContextAttribs
+    dereferences the NULL screen and the process dies of SIGSEGV (exit 139, no message) where the
+    README promises exit 3. A crash cannot be caught in-process, so a short-lived child process
+    (sys.executable, exec'd: no fork of a process holding a context) tries first, once per process
+    and setting. Mesa's sw_screen_create (gallium/auxiliary/target-helpers/inline_sw_helper.h) stops
+    at GALLIUM_DRIVER when it is set and otherwise tries every software driver built in (llvmpipe,
+    softpipe) until one works, so the NULL screen needs GALLIUM_DRIVER set (or a Mesa none of whose
+    drivers works): the probe runs only then, and its 35-41 ms (llvmpipe, 2 loaded cores; the
+    context itself takes ~24 ms) are not spent on every run."""
+    driver = os.environ.get("GALLIUM_DRIVER")
+    if not driver or not sys.executable:
+        return
+    key = (path, driver)
+    if key not in _probed:
+        _probed[key] = _run_probe(path, driver)
+    if _probed[key]:
+        raise GLError(_probed[key])
+
+
+def _run_probe(path: str, driver: str) -> str | None:
+    """None if a child process creates the OSMesa context, else why not (one line)."""
+    code = _PROBE % (_OSMESA_FORMAT, _OSMESA_RGBA, _OSMESA_PROFILE, _OSMESA_CORE_PROFILE, _OSMESA_MAJOR,
+                     _OSMESA_MINOR, _GL_UNSIGNED_BYTE)
+    try:
+        r = subprocess.run([sys.executable, "-I", "-S", "-c", code, path], stdin=subprocess.DEVNULL,
+                           capture_output=True, timeout=60)
+    except (OSError, subprocess.SubprocessError) as exc:
+        return f"OSMesa back end unavailable: the probe process failed ({exc})"
+    if r.returncode < 0:
+        try:
+            name = signal.Signals(-r.returncode).name
+        except ValueError:
+            name = f"signal {-r.returncode}"
+        return (f"OSMesa back end unavailable: creating a context crashed ({name}) with "
+                f"GALLIUM_DRIVER={driver!r}; unset it or name a driver this Mesa has (llvmpipe)")
+    if r.returncode != 0:
+        return f"OSMesa could not create a GL 4.2+ core context (GALLIUM_DRIVER={driver!r})"
+    return None
+
+
 def _osmesa() -> GLContext:
-    lib = None
+    lib = path = None
     for name in ("OSMesa", "libOSMesa.so.8", "libOSMesa.so.6"):
         path = ctypes.util.find_library(name) if "." not in name else name
         if not path:
@@ -128,6 +197,7 @@ def _osmesa() -> GLContext:
             continue
     if lib is None:
         raise GLError("OSMesa back end unavailable: libOSMesa not found (apt-get install libosmesa6)")
+    _probe_osmesa(path)
     lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
     lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
     lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int,

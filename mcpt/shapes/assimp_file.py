@@ -1,4 +1,4 @@
-"""Mesh files read by Assimp (assimp-py): OBJ+MTL, PLY, glTF/GLB, STL, ... as a :class:`RawMesh`.
+"""Mesh files read by Assimp (assimp-py): OBJ+MTL, STL, OFF, ... as a :class:`RawMesh` (PLY: ply.py).
 
 OBJ files get the checks Assimp does not make (mcpt/shapes/obj.py), on bytes read once.
 

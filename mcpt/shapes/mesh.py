@@ -24,6 +24,7 @@ from ..shading.normals import unit_vertex_normals
 from .assimp_file import read_assimp
 from .dedup import first_of_duplicates
 from .obj import FLOAT32_MAX
+from .ply import read_ply
 from .raw_mesh import MeshError, MeshMaterial, RawMesh, RawPart, TextureMap
 
 __all__ = ["READERS", "Mesh", "MeshError", "MeshMaterial", "RawMesh", "RawPart", "TextureMap", "assemble",
@@ -39,8 +40,10 @@ DEGENERATE_REL_AREA = 1e-30
 Reader = Callable[..., RawMesh]
 
 #: Geometry readers by source kind: a mesh file's lower-case suffix, or the ``kind`` of a
-#: non-file source (an analytic primitive). Mesh files of any other suffix go to Assimp.
-READERS: dict[str, Reader] = {}
+#: non-file source (an analytic primitive). Mesh files of any other suffix go to Assimp; PLY is
+#: read by mcpt (issue #24 item 14: Assimp's reader shifts binary data that starts with a
+#: whitespace byte).
+READERS: dict[str, Reader] = {".ply": read_ply}
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,7 +128,7 @@ def load_mesh(
     """Load every triangle of a mesh file into one `Mesh` (`read_geometry`, then `assemble`).
 
     Args:
-        path: mesh file; any format Assimp reads (OBJ+MTL, PLY, glTF/GLB, STL, ...) or one of
+        path: mesh file; any format Assimp reads (OBJ+MTL, STL, ...) or one of
             `READERS`. Node transforms inside the file are applied (Assimp PreTransformVertices).
         transform, need_normals, need_uvs: as for `assemble`.
 

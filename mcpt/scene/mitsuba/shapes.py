@@ -1,6 +1,6 @@
 """Mitsuba 3 shapes -> mcpt mesh entries (``file`` or ``shape``, ``transform``, ``flip_normals``).
 
-``obj`` / ``ply`` are read by Assimp, ``serialized`` by mcpt/shapes/serialized.py; ``rectangle``,
+``obj`` is read by Assimp, ``ply`` by mcpt/shapes/ply.py, ``serialized`` by mcpt/shapes/serialized.py; ``rectangle``,
 ``cube``, ``disk``, ``sphere`` (``center``, ``radius``) and ``cylinder`` (``p0``, ``p1``, ``radius``)
 are tessellated (mcpt/shapes/primitives.py) in Mitsuba's own frame, their parameters folded into
 the transform. ``shapegroup`` / ``instance`` are flattened: each member placed by
