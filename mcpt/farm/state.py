@@ -113,12 +113,19 @@ def check_state_path(path: str | Path, *, resume: bool, overwrite: bool) -> Path
     is replaced only when asked (``--overwrite``): a render without ``--resume`` would otherwise
     replace hours of passes with its own."""
     path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        name_max = os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    if len(os.fsencode(path.name)) > name_max:  # exists() itself would fail (ENAMETOOLONG)
+        raise StateError(f"{path}: cannot write the checkpoint in {folder}: its name has "
+                         f"{len(os.fsencode(path.name))} bytes, more than the {name_max} a name may have here")
     if path.exists():
         _regular(path)  # a FIFO would block the set-up when opened (issue #24 item 9)
     if path.exists() and not resume and not overwrite:
         raise StateError(f"{path}: a checkpoint is already there: --resume carries it on, "
                          "--overwrite starts again and replaces it")
-    folder = path.parent if str(path.parent) else Path(".")
     try:
         fd, probe = tempfile.mkstemp(prefix=f".{path.name[:200]}.", suffix=".tmp", dir=folder)
         os.close(fd)
