@@ -1,6 +1,7 @@
 """From a scene file to a compiled program with the scene uploaded: everything before the passes.
 
     read      mcpt.scene.load_scene            YAML -> validated Scene (+ -D and command-line overrides)
+    size      mcpt.gpu.scene_size              its triangles counted from headers, refused past the limit
     build     mcpt.shapes.world.load_world     meshes, materials, BVH, lights -> World
               (through mcpt.shapes.world_cache: a scene built before is read back from disk)
     derive    mcpt.gpu.features.for_world      what the world needs -> Features (the define set)
@@ -24,6 +25,7 @@ from .gpu.features import Features, for_world, loop_limit_for
 from .gpu.pack import pack
 from .gpu.pack_cache import cached_pack
 from .gpu.render import Renderer
+from .gpu.scene_size import check_scene_size
 from .output.layers import feature_flags as aov_flags
 from .scene import Scene, SceneError, load_scene
 from .shading.camera import check_camera
@@ -62,6 +64,7 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     if not isinstance(scene, Scene):
         scene = load_scene(scene, overrides=tuple(overrides))
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
+    check_scene_size(scene)  # issue #24: before any geometry is read or tessellated
     gl = shared_context(gl_backend)
     # The hash a checkpoint, an EXR header and every farm worker check is that of the files this
     # world was built from (issue #24: a mesh edited during a farm render was drawn by the workers

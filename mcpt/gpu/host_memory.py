@@ -8,8 +8,18 @@ issue #24, the former estimate counted only the float64 sums and was 2.3-2.8x lo
     1024^2      279 MB                 600 MB
     2048^2      623 MB                1930 MB
 
-that is 112 bytes a pixel for one target and 433 for four: ~107 bytes a pixel per target (the
-float64 sums and float32 read-backs, the GL driver's RGBA32F targets and path-state images, the
+and of a scene's triangles (issue #24; 8x8 pixels, 1 spp, the world cache off):
+
+    triangles            spheres (XML, smooth normals)   the same textured    a grid OBJ (flat)
+    98 280 / 100 352           201 MB                       231 MB              204 MB
+    1 015 560 / 1 002 528      750 MB                       791 MB              558 MB
+    3 996 720 / 4 004 450     2257 MB                         -                1666 MB
+
+that is 540-625 bytes a triangle for spheres (their corner normals), 383 for a flat mesh, while
+the world is built (mesh parts in float64, their concatenation, the BVH build) and packed.
+
+The image's share is 112 bytes a pixel for one target and 433 for four: ~107 bytes a pixel per
+target (the float64 sums and float32 read-backs, the GL driver's RGBA32F targets and path-state images, the
 image and its layers as they are written), plus ~165 MB of interpreter, Mesa and scene.
 """
 
@@ -20,6 +30,8 @@ import os
 #: Measured above, rounded up: bytes per pixel per accumulation target, and the fixed part.
 BYTES_PER_PIXEL_TARGET = 120
 BASE_BYTES = 176 * 2**20
+#: Measured above, rounded up: peak bytes per triangle of the scene (mcpt/gpu/scene_size.py).
+BYTES_PER_TRIANGLE = 640
 
 
 def host_bytes(width: int, height: int, targets: int) -> int:

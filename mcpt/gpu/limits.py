@@ -4,6 +4,20 @@ written-out triangle tables of small scenes, the samples one draw may hold (read
 
 from __future__ import annotations
 
+from ..shapes.bvh import SAH_MAX_TRIANGLES
+
+#: The buffer-texture size mcpt relies on (issue #24): the GL_MAX_TEXTURE_BUFFER_SIZE that llvmpipe
+#: and NVIDIA's drivers report (the GL spec's own minimum, 2^16, holds no real scene). llvmpipe does
+#: not clamp a larger buffer, so the upload checks the driver's figure again (tbo.py check_size).
+GL_BUFFER_TEXELS = 1 << 27
+#: Most triangles a scene may have: the largest buffer per triangle is the BVH's (BVH.gpu_nodes:
+#: 3 texels a triangle record, 4 an interior node, 1 pad). The build (bvh_build.py) splits at the
+#: median down to leaves of 2 to 4 triangles, at most F/2 interior nodes, except in a subtree of at
+#: most SAH_MAX_TRIANGLES triangles split by SAH (down to single triangles) and the root joining the
+#: large triangles' subtree: at most F/2 + SAH_MAX_TRIANGLES + 1 nodes, 5 F + 4 (2^18 + 1) + 1
+#: texels. A scene above this count is refused before anything is built (mcpt/gpu/scene_size.py).
+MAX_TRIANGLES = (GL_BUFFER_TEXELS - 4 * (SAH_MAX_TRIANGLES + 1) - 1) // 5
+
 # Up to this many triangles, a scene without BVH has its count compiled in and its brute-force
 # loop written out in full (glsl/bvh.glsl MCPT_TRI_CONST; the shader writes out exactly this many).
 TRI_CONST_MAX = 64

@@ -277,6 +277,10 @@ class Scene(StrictModel):
         file = str(self._source) if self._source is not None else "<scene>"
         return f"{file}:{line}: {dotted(key)}" if line else f"{file}: {dotted(key)}"
 
+    def line(self, *key) -> int | None:
+        """The line of exactly this key, where the reader recorded one (None otherwise)."""
+        return self._lines.get(tuple(str(k) for k in key))
+
     def with_overrides(
         self,
         *,

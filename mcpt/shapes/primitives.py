@@ -136,6 +136,24 @@ def cylinder(tolerance: float = TOLERANCE) -> Primitive:
     return Primitive(p, _grid(n, 1), normals, uv)
 
 
+def triangle_count(kind: str, tolerance: float = TOLERANCE) -> int:
+    """Triangles of ``make(kind, tolerance)``, without making it (issue #24: a scene's size is
+    checked before any geometry is built; tests/test_scene_size.py holds each count to its
+    tessellation). None of these shapes has a degenerate triangle for mesh.assemble to drop."""
+    if kind == "rectangle":
+        return 2
+    if kind == "cube":
+        return 12
+    if kind == "disk":
+        return segments(tolerance)
+    if kind == "cylinder":
+        return 2 * segments(tolerance)
+    if kind == "sphere":  # rings - 1 bands of n cells, each 2 triangles, less the poles' half cells
+        n = segments(tolerance / 2.0)
+        return 2 * n * (max(n // 2, 2) - 1)
+    raise ValueError(f"unknown primitive {kind!r} (known: {', '.join(KINDS)})")
+
+
 def make(kind: str, tolerance: float = TOLERANCE) -> Primitive:
     """The primitive named ``kind`` (one of :data:`KINDS`)."""
     if kind == "rectangle":

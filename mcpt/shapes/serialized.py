@@ -111,30 +111,47 @@ class _Stream:
         return out
 
 
-def read_serialized(path: str | Path, shape_index: int = 0) -> SerializedMesh:
-    """Shape ``shape_index`` of the .serialized file at ``path`` (see the module doc)."""
-    path = Path(path)
-    version, offsets = shape_count(path)
+def _header(fh, path: Path, shape_index: int, version: int, offsets: list[int]):
+    """(where, zlib stream positioned after the header, flags, name, vertex count, triangle
+    count) of shape ``shape_index``; ``fh`` is the open file, ``version, offsets`` its
+    :func:`shape_count`."""
     if not 0 <= shape_index < len(offsets):
         raise SerializedError(f"{path}: shape_index {shape_index} out of range (the file holds "
                               f"{len(offsets)} shape(s))")
     where = f"{path}: shape {shape_index}"
+    fh.seek(offsets[shape_index])
+    magic, ver = struct.unpack("<HH", fh.read(4))
+    if magic != MAGIC or ver != version:
+        raise SerializedError(f"{where}: no shape header at offset {offsets[shape_index]}")
+    s = _Stream(fh, where)
+    (flags,) = struct.unpack("<I", s.read(4))
+    name = ""
+    if version == 4:
+        raw = bytearray()
+        while (c := s.read(1)) != b"\0":
+            raw += c
+            if len(raw) > 4096:
+                raise SerializedError(f"{where}: shape name longer than 4096 bytes")
+        name = raw.decode("utf-8", "replace")
+    nv, nt = struct.unpack("<QQ", s.read(16))
+    return where, s, flags, name, nv, nt
+
+
+def triangle_count(path: str | Path, shape_index: int = 0) -> int:
+    """The triangle count shape ``shape_index``'s header announces: a few hundred bytes
+    decompressed (issue #24: a scene's size is checked before its geometry is read)."""
+    path = Path(path)
+    version, offsets = shape_count(path)
     with open(path, "rb") as fh:
-        fh.seek(offsets[shape_index])
-        magic, ver = struct.unpack("<HH", fh.read(4))
-        if magic != MAGIC or ver != version:
-            raise SerializedError(f"{where}: no shape header at offset {offsets[shape_index]}")
-        s = _Stream(fh, where)
-        (flags,) = struct.unpack("<I", s.read(4))
-        name = ""
-        if version == 4:
-            raw = bytearray()
-            while (c := s.read(1)) != b"\0":
-                raw += c
-                if len(raw) > 4096:
-                    raise SerializedError(f"{where}: shape name longer than 4096 bytes")
-            name = raw.decode("utf-8", "replace")
-        nv, nt = struct.unpack("<QQ", s.read(16))
+        return int(_header(fh, path, shape_index, version, offsets)[5])
+
+
+def read_serialized(path: str | Path, shape_index: int = 0) -> SerializedMesh:
+    """Shape ``shape_index`` of the .serialized file at ``path`` (see the module doc)."""
+    path = Path(path)
+    version, offsets = shape_count(path)
+    with open(path, "rb") as fh:
+        where, s, flags, name, nv, nt = _header(fh, path, shape_index, version, offsets)
         real = np.float64 if flags & FLAG_DOUBLE else np.float32
         if not flags & (FLAG_SINGLE | FLAG_DOUBLE):
             raise SerializedError(f"{where}: flags {flags:#x} give neither single nor double precision")

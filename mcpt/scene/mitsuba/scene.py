@@ -135,7 +135,7 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
             materials[name] = mat
             lines[("materials", name)] = (s.bsdf or s.node).line
         meshes.append({**s.mesh, "material": by_value[key]})
-        lines[("meshes", str(i))] = s.node.line
+        _mesh_lines(lines, i, s)
     if not meshes:
         raise XmlError(path, tree.root.line, "<scene>", "no shapes: nothing to render")
     name = Path(path).stem
@@ -146,6 +146,14 @@ def scene_data(path: str | Path, defines: dict[str, str] | None = None) -> tuple
         data["environment"] = environment
     add_medium(data, lines, fog, tree.ids)
     return data, lines
+
+
+def _mesh_lines(lines: dict, i: int, s: ShapeOut) -> None:
+    """The lines of mesh entry ``i``: its shape's, and the top-level instance's it came through
+    (issue #24: a scene too large names the instance where it crosses the limit)."""
+    lines[("meshes", str(i))] = s.node.line
+    if s.placed_by is not None:
+        lines[("meshes", str(i), "instance")] = s.placed_by.line
 
 
 def _emission(s) -> dict:

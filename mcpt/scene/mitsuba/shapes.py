@@ -38,6 +38,7 @@ class ShapeOut:
     smooth: bool
     media: dict = field(default_factory=dict)  # issue #25: "interior" / "exterior" -> <medium> node
     radiance_texture: dict | None = None  # issue #22: a bitmap radiance (mcpt's emission_texture)
+    placed_by: Node | None = None  # issue #24: the top-level <shape type="instance"> it came through
 
 
 def _folded(kind: str, props: dict[str, Node], node: Node) -> np.ndarray:
@@ -83,8 +84,9 @@ def _matrix_dict(m: np.ndarray) -> dict:
 
 
 def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeOut],
-          active: tuple[str, ...] = ()) -> None:
-    """Append the flattened shapes of ``<shape>`` ``node`` (placed by ``parent``) to ``out``."""
+          active: tuple[str, ...] = (), placed_by: Node | None = None) -> None:
+    """Append the flattened shapes of ``<shape>`` ``node`` (placed by ``parent``; through the
+    top-level instance ``placed_by``, if any) to ``out``."""
     kind = node.get("type")
     if kind not in SUPPORTED:
         raise node.error(f"not supported by mcpt (supported: {', '.join(SUPPORTED)})")
@@ -104,7 +106,7 @@ def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeO
             raise node.error(f"instance cycle: {' -> '.join(active + (ident,))}")
         for member in group.children:
             if member.tag in ("shape", "ref"):
-                shape(deref(member, ids), ids, parent @ local, out, active + (ident,))
+                shape(deref(member, ids), ids, parent @ local, out, active + (ident,), placed_by or node)
         return
     if len(out) >= MAX_SHAPES:
         raise node.error(f"the scene expands to more than {MAX_SHAPES} shapes")
@@ -150,7 +152,7 @@ def shape(node: Node, ids: dict[str, Node], parent: np.ndarray, out: list[ShapeO
     if flip:
         mesh["flip_normals"] = True
     mesh.update(_matrix_dict(matrix))
-    out.append(ShapeOut(node, mesh, bsdf, radiance, smooth, media, radiance_texture))
+    out.append(ShapeOut(node, mesh, bsdf, radiance, smooth, media, radiance_texture, placed_by))
 
 
 def relative_paths(data: dict, folder: Path) -> dict:
