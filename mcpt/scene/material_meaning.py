@@ -274,8 +274,21 @@ class MaterialResolver:
             if row.metal_rough is not None:
                 where = self.scene.where("materials", row.name, "metallic_roughness_texture")
                 row = replace(row, metal_rough=self._texture_id(row.metal_rough, where))
+                self._check_metal_rough(row.metal_rough, where)
             self.rows.append(row)
         return self._index[key]
+
+    def _check_metal_rough(self, t: int, where: str) -> None:
+        """Refuse a grey metallic-roughness image (issue #21 item 1): glTF reads metalness from its
+        blue and roughness from its green channel, so a grey map (1 or 2 channels, 8- or 16-bit)
+        would set both from one value: almost surely a roughness-only or occlusion map."""
+        tex = self.textures[t]
+        if tex.channels < 3:
+            kind = "grey" if tex.channels == 1 else "grey + alpha"
+            raise TextureError(f"{where}: {tex.path}: a {kind} image ({tex.channels} channel"
+                               f"{'s' if tex.channels > 1 else ''}); a metallic-roughness texture must be RGB or "
+                               f"RGBA (glTF: metalness in blue, roughness in green): a grey one is almost "
+                               f"surely a mistake (a roughness-only or occlusion map?)")
 
     def _normal_map(self, name: str, ref) -> tuple:
         """The table's normal-map column: (texture id, scale, right-handed frame, bump)."""
