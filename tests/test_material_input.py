@@ -109,3 +109,19 @@ def test_colour_metallic_roughness_texture_renders(tmp_path, image):
     r = render(yaml_scene(tmp_path, f"{{type: metalrough, metallic_roughness_texture: {image}}}"), out)
     assert r.exit_code == 0, r.output
     assert out.exists()
+
+
+# ---- item 2: glTF metallicFactor / roughnessFactor above 1 are refused, not clamped ------------------
+
+@pytest.mark.parametrize("key, value", [("roughnessFactor", 1.5), ("metallicFactor", 2.0), ("roughnessFactor", -0.5)])
+def test_gltf_unit_factors_out_of_range_are_refused(tmp_path, key, value):
+    out = tmp_path / "o.exr"
+    scene = gltf_scene(tmp_path, {"pbrMetallicRoughness": {key: value}})
+    line = one_error(render(scene, out), out, "s.gltf: materials[0]", f"{key} {value:g}")
+    assert "[0, 1]" in line or ">= 0" in line
+
+
+def test_gltf_unit_factors_at_one_render(tmp_path):
+    out = tmp_path / "o.exr"
+    scene = gltf_scene(tmp_path, {"pbrMetallicRoughness": {"roughnessFactor": 1, "metallicFactor": 1.0}})
+    assert render(scene, out).exit_code == 0 and out.exists()

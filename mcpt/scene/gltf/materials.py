@@ -46,6 +46,15 @@ def _factor(g: Gltf, obj: dict, key: str, default, where: str, n: int | None = N
     return np.asarray(value, np.float64) if n is not None else float(value)
 
 
+def _unit(g: Gltf, obj: dict, key: str, default: float, where: str) -> float:
+    """A factor the glTF schema bounds to [0, 1]: above 1 is refused, not clamped (issue #21 item 2:
+    a clamped roughnessFactor 1.5 rendered as 1 without a word)."""
+    value = _factor(g, obj, key, default, where)
+    if value > 1.0:
+        raise g.error(where, f"{key} {value:g} is not in [0, 1] (the glTF 2.0 schema's range)")
+    return value
+
+
 def _texture_info(g: Gltf, info, where: str, key: str) -> dict:
     if not isinstance(info, dict):
         raise g.error(where, f"{key} must be an object")
@@ -126,8 +135,8 @@ def material(g: Gltf, index: int | None) -> dict:
     base = _factor(g, pbr, "baseColorFactor", [1.0, 1.0, 1.0, 1.0], where, 4)
     if (base > 1.0).any():
         raise g.error(where, f"baseColorFactor {base.tolist()} is not in [0, 1]")
-    metallic = min(_factor(g, pbr, "metallicFactor", 1.0, where), 1.0)
-    roughness = min(_factor(g, pbr, "roughnessFactor", 1.0, where), 1.0)
+    metallic = _unit(g, pbr, "metallicFactor", 1.0, where)
+    roughness = _unit(g, pbr, "roughnessFactor", 1.0, where)
     out: dict = {"type": "metalrough", "albedo": base[:3].tolist(), "metallic": metallic,
                  "roughness": roughness, "two_sided": m.get("doubleSided") is True}
     if "baseColorTexture" in pbr:  # times the factor (glsl/texture.glsl albedo_at)
