@@ -125,3 +125,32 @@ def test_gltf_unit_factors_at_one_render(tmp_path):
     out = tmp_path / "o.exr"
     scene = gltf_scene(tmp_path, {"pbrMetallicRoughness": {"roughnessFactor": 1, "metallicFactor": 1.0}})
     assert render(scene, out).exit_code == 0 and out.exists()
+
+
+# ---- item 3: ior below 1 said in words; smooth plastic refuses ior 1 as roughplastic does ------------
+
+@pytest.mark.parametrize("material", ["dielectric", "plastic", "roughplastic", "thindielectric"])
+@pytest.mark.parametrize("ior, needles", [(0.67, ["ior 0.67 < 1 is not supported", "relative index",
+                                                  "denser medium must be inside", "flip the normals", "1.493"]),
+                                         (0, ["ior 0 is no index of refraction", "relative index"]),
+                                         (-1.5, ["ior -1.5 is no index of refraction"])])
+def test_ior_below_one_says_what_it_means(tmp_path, material, ior, needles):
+    out = tmp_path / "o.exr"
+    rough = ", roughness: 0.3" if material == "roughplastic" else ""
+    scene = yaml_scene(tmp_path, f"{{type: {material}, ior: {ior}{rough}}}")
+    one_error(render(scene, out), out, "s.yaml:4: materials.m.ior", *needles)
+
+
+@pytest.mark.parametrize("material", ["plastic", "roughplastic"])
+def test_plastics_refuse_ior_one_alike(tmp_path, material):
+    out = tmp_path / "o.exr"
+    rough = ", roughness: 0.3" if material == "roughplastic" else ""
+    line = one_error(render(yaml_scene(tmp_path, f"{{type: {material}, ior: 1{rough}}}"), out), out,
+                     "s.yaml:4: materials.m.ior")
+    assert line.endswith("ior 1 is no interface (the same index on both sides: the surface would be invisible); "
+                         "a dielectric needs ior > 1 (or an interior medium, whose boundary it then is)"), line
+
+
+def test_ior_above_four_is_refused(tmp_path):
+    out = tmp_path / "o.exr"
+    one_error(render(yaml_scene(tmp_path, "{type: dielectric, ior: 4.5}"), out), out, "materials.m.ior", "above 4")
