@@ -122,11 +122,12 @@ MATERIAL_KEYS = {
     "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
                      "two_sided"),
     "metalrough": ("albedo", "albedo_texture", "metallic", "roughness", "masking", "two_sided",
-                   "metallic_roughness_texture"),
+                   "metallic_roughness_texture", "ior", "specular", "specular_color"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
              "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior",
-             "metallic", "metallic_roughness_texture")
+             "metallic", "metallic_roughness_texture", "specular", "specular_color")
+_Unbounded = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 
 
 class Material(StrictModel):
@@ -163,7 +164,10 @@ class Material(StrictModel):
       absent as in glTF; ``masking`` as for a rough conductor. With both ``albedo`` and
       ``albedo_texture`` the base colour is their product (glTF's baseColorFactor x texture);
       ``metallic_roughness_texture`` scales ``metallic`` by its blue and ``roughness`` by its green
-      channel per texel (glTF's metallicRoughnessTexture, linear).
+      channel per texel (glTF's metallicRoughnessTexture, linear). ``ior`` (KHR_materials_ior: >= 1,
+      or 0; default 1.5), ``specular`` (KHR_materials_specular's specularFactor in [0, 1], default 1)
+      and ``specular_color`` (its specularColorFactor, >= 0, default [1, 1, 1]) set the dielectric's
+      Fresnel as those extensions define it (issue #21 item 5); the metal is unaffected.
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -190,6 +194,11 @@ class Material(StrictModel):
     metallic_roughness_texture: ImageTexture | None = None
     """Metalrough: glTF's metallicRoughnessTexture, read linearly: its blue channel times ``metallic``,
     its green times ``roughness``, per texel."""
+    specular: Annotated[float, Field(ge=0.0, le=1.0)] = 1.0
+    """Metalrough: KHR_materials_specular's specularFactor (the dielectric's F0 and F90 scale)."""
+    specular_color: Annotated[tuple[_Unbounded, _Unbounded, _Unbounded], fixed_list(3)] = (1.0, 1.0, 1.0)
+    """Metalrough: KHR_materials_specular's specularColorFactor (linear RGB, >= 0; F0 = min(f0(ior)
+    x this, 1) x specular)."""
     distribution: Literal["ggx", "beckmann"] = "ggx"
     """Rough conductor or dielectric: the microfacet distribution (mcpt/shading/microfacet.py)."""
     masking: Literal["height_correlated", "separable"] = "height_correlated"
@@ -295,6 +304,11 @@ class Material(StrictModel):
         """An interface's index in mcpt's range [1, 4], what one below 1 means said in words (issue
         #21 item 3: pydantic's "greater than or equal to 1" did not)."""
         x = self.ior
+        if self.type == "metalrough":  # a Fresnel parameter, not an interface: KHR_materials_ior's range
+            if x != 0.0 and x < 1.0:
+                raise FieldError(("ior",), f"ior {x:g}: KHR_materials_ior allows ior >= 1, or 0 (F0 = 1: the "
+                                           f"specular-glossiness conversion); below 1 is not an index mcpt reads")
+            return
         if x > 4.0:
             raise FieldError(("ior",), f"ior {x:g} is above 4, mcpt's range for an interface's index")
         if x <= 0.0:
