@@ -10,6 +10,10 @@
 // Sampling: the specular lobe (GGX visible normals) with probability p, else the cosine lobe;
 // p = s / (s + d) from the lobes' weights at the view angle (s: Schlick at cos_o mixed by metallic,
 // d: (1 - metallic) (1 - F_0.04(cos_o)) mean(baseColor)); the pdf is both lobes' mixture (MIS).
+// MCPT_METALROUGH_SPECULAR (KHR_materials_ior / _specular, issue #21 item 5): the dielectric's
+// Schlick F = F0 + (F90 - F0) (1 - |v.h|)^5 with F0 (rgb), F90 from the table (m.mr_f0, m.mr_f90),
+// the base weighted by 1 - max(F) (the extension's fresnel_mix); d above uses 1 - max(F(cos_o)).
+// Without it, the code below is exactly the plain appendix-B material's (F0 0.04, F90 1).
 #define MAT_METALROUGH 7
 
 float metalrough_schlick_w(float c) { float x = clamp(1.0 - c, 0.0, 1.0); float x2 = x * x; return x2 * x2 * x; }
@@ -18,9 +22,15 @@ float metalrough_schlick_w(float c) { float x = clamp(1.0 - c, 0.0, 1.0); float 
 float metalrough_p_spec(Material m, float cos_o) {
     float met = m.scale.x, w = metalrough_schlick_w(cos_o);
     vec3 fm = m.albedo + (1.0 - m.albedo) * w;
+#if MCPT_METALROUGH_SPECULAR
+    vec3 fr = m.mr_f0 + (m.mr_f90 - m.mr_f0) * w;
+    float s = mix((fr.r + fr.g + fr.b) / 3.0, (fm.r + fm.g + fm.b) / 3.0, met);
+    float d = (1.0 - met) * (1.0 - max3(fr)) * (m.albedo.r + m.albedo.g + m.albedo.b) / 3.0;
+#else
     float fd = 0.04 + 0.96 * w;
     float s = mix(fd, (fm.r + fm.g + fm.b) / 3.0, met);
     float d = (1.0 - met) * (1.0 - fd) * (m.albedo.r + m.albedo.g + m.albedo.b) / 3.0;
+#endif
     return s + d > 0.0 ? s / (s + d) : 1.0;
 }
 
@@ -35,9 +45,14 @@ vec3 metalrough_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
     float d = mf_D(h, m.alpha, m.flags);
     float spec = d * mf_G2(lo, li, m.flags) / (4.0 * o.z);  // specular_brdf |cos_i|
     float met = m.scale.x, w = metalrough_schlick_w(abs(oh));
-    float fd = 0.04 + 0.96 * w;                            // fresnel_mix's Schlick, ior 1.5
     vec3 fm = m.albedo + (1.0 - m.albedo) * w;             // conductor_fresnel, f0 = baseColor
+#if MCPT_METALROUGH_SPECULAR
+    vec3 fr = m.mr_f0 + (m.mr_f90 - m.mr_f0) * w;          // fresnel_mix's weight x Schlick (extensions)
+    vec3 f = spec * mix(fr, fm, met) + (1.0 - met) * (1.0 - max3(fr)) * m.albedo * (i.z / PI);
+#else
+    float fd = 0.04 + 0.96 * w;                            // fresnel_mix's Schlick, ior 1.5
     vec3 f = spec * mix(vec3(fd), fm, met) + (1.0 - met) * (1.0 - fd) * m.albedo * (i.z / PI);
+#endif
     float p = metalrough_p_spec(m, o.z);
     pdf = p * d * mf_pdf_h_over_D(o, h, lo, m.flags) / (4.0 * oh) + (1.0 - p) * i.z / PI;
     return f;

@@ -4,6 +4,7 @@
 //     (with MCPT_EMISSION_TEXTURES 1.w is the emission texture id: glsl/emission_texture.glsl)
 //   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS >= 4
 //   4 (k.rgb, 0)                       -- with a complex-Fresnel conductor (MCPT_FRESNEL_COMPLEX)
+//     metal-rough: (F0.rgb, F90), KHR_materials_ior / _specular -- MCPT_METALROUGH_SPECULAR
 //   the last 16: a rough plastic's transmittance table (bsdf_roughplastic.glsl) -- MCPT_MAT_ROUGH_PLASTIC
 // light_pdf_area = luminance(Le) / total emitted power: the density, per unit area, with which
 // next-event estimation picks a point on a triangle of this material (needed for MIS).
@@ -51,6 +52,9 @@ struct Material {
 #if MCPT_MAT_ROUGH_PLASTIC
     int base;       // the material's first texel (rough plastic reads its table after it)
 #endif
+#if MCPT_METALROUGH_SPECULAR
+    vec3 mr_f0; float mr_f90;  // metal-rough: the dielectric's Fresnel F0, F90 (bsdf_metalrough.glsl)
+#endif
 };
 
 Material material(int id) {
@@ -79,6 +83,10 @@ Material material(int id) {
 #endif
 #if MCPT_MAT_ROUGH_PLASTIC
     m.base = base;
+#endif
+#if MCPT_METALROUGH_SPECULAR
+    uvec4 e = texelFetch(u_materials, base + 4);
+    m.mr_f0 = uintBitsToFloat(e.xyz); m.mr_f90 = uintBitsToFloat(e.w);
 #endif
     return m;
 }

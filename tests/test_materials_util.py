@@ -24,9 +24,9 @@ TYPE = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdiele
 PROBE_FEATURES = Features.of(bounces=1).everything()
 
 
-def probe(gl, mode: str, items: np.ndarray, *, tbos=None, **uniforms) -> np.ndarray:
+def probe(gl, mode: str, items: np.ndarray, *, tbos=None, features=None, **uniforms) -> np.ndarray:
     """(N, 4) uint32 from tests/glsl/probe_sample.frag in ``mode`` over ``items`` ((N, k<=4)
-    floats or uints)."""
+    floats or uints); ``features``: the program's (default: every code path, PROBE_FEATURES)."""
     items = np.asarray(items)
     n = items.shape[0]
     buf = np.zeros((n, 4), np.uint32)
@@ -36,16 +36,18 @@ def probe(gl, mode: str, items: np.ndarray, *, tbos=None, **uniforms) -> np.ndar
         buf[:, : items.shape[1]] = items.astype(np.uint32)
     unis = {"u_mode": MODE[mode]}
     # Conductor parameters a test does not name: Schlick with lobe scale 1 (today's conductor).
+    # Metal-rough: the plain appendix-B dielectric Fresnel (F0 0.04, F90 1) unless a test names one.
     uniforms = {"flags": 0, "scale": (1.0, 1.0, 1.0), "eta": (1.0, 1.0, 1.0), "k": (0.0, 0.0, 0.0),
-                **uniforms}
+                "mr_f0": (0.04, 0.04, 0.04), "mr_f90": 1.0, **uniforms}
     for k, v in uniforms.items():
         if k == "type":
             v = TYPE[v]
         if isinstance(v, (list, tuple, np.ndarray)):
             v = tuple(float(x) for x in v)
         unis["u_" + k] = v
-    return run_test_probe(gl, "probe_sample.frag", buf, n, preamble=PROBE_FEATURES.preamble(),
-                          key=("probe_sample", PROBE_FEATURES.key), tbos=tbos, uniforms=unis, width=1024)
+    f = PROBE_FEATURES if features is None else features
+    return run_test_probe(gl, "probe_sample.frag", buf, n, preamble=f.preamble(),
+                          key=("probe_sample", f.key), tbos=tbos, uniforms=unis, width=1024)
 
 
 def floats(out: np.ndarray) -> np.ndarray:

@@ -168,7 +168,7 @@ def test_compiled_only_when_used_and_bad_input():
     assert metalrough.MIN_ALPHA == materials.MIN_ALPHA and metalrough.alpha(0.0) == materials.MIN_ALPHA
     assert for_world(load_world(_mat("{type: plastic}"))).defines()["MCPT_MAT_METALROUGH"] == 0
     assert "less than or equal to 1" in _err("{type: metalrough, metallic: 1.5}")
-    assert "has no ior" in _err("{type: metalrough, ior: 1.4}")
+    assert "has no ior" in _err("{type: diffuse, ior: 1.4}")  # metalrough takes ior since issue #21 item 5
     assert "diffuse material has no metallic" in _err("{metallic: 0.5}")
 
 

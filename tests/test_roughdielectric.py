@@ -184,7 +184,7 @@ def test_compiled_only_when_used_and_bad_input():
     assert "less than or equal to 1" in _err("{type: roughdielectric, roughness: 1.5}")
     assert "ior 1 is no interface" in _err("{type: roughdielectric, roughness: 0.1, ior: 1}")
     assert "ior 1 is no interface" in _err("{type: dielectric, ior: 1.0}")
-    assert "greater than or equal to 1" in _err("{type: roughdielectric, roughness: 0.1, ior: -2}")
+    assert "is no index of refraction" in _err("{type: roughdielectric, roughness: 0.1, ior: -2}")
     assert "roughdielectric material has no two_sided" in _err("{type: roughdielectric, roughness: 0.1, "
                                                               "two_sided: false}")
 

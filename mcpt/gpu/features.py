@@ -93,6 +93,7 @@ class Uses:
     thin_dielectric: bool = False   # thin glass present (mcpt/shading/thindielectric.py)
     rough_plastic: bool = False     # rough plastic present: its 16-texel table (roughplastic.py)
     metalrough: bool = False        # glTF metal-rough present (mcpt/shading/metalrough.py)
+    metalrough_specular: bool = False  # some metal-rough has KHR_materials_ior / _specular: texel 4
     dielectric: bool = False        # smooth glass present
     absorption: bool = False        # some dielectric absorbs (Beer-Lambert)
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
@@ -123,7 +124,7 @@ class Uses:
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,
             separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True, metalrough=True,
-            medium=True, interior_media=True, emission_textures=True)
+            metalrough_specular=True, medium=True, interior_media=True, emission_textures=True)
 
     @property
     def delta(self) -> bool:
@@ -140,7 +141,7 @@ class Uses:
         """Texels per material in the table: 2 for diffuse-only scenes, 4 with any parameter, 5
         with a complex-Fresnel conductor (its k)."""
         table = 16 if self.rough_plastic else 0
-        if self.conductor and self.fresnel_complex:
+        if (self.conductor and self.fresnel_complex) or (self.metalrough and self.metalrough_specular):
             return 5 + table
         extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
                  or self.one_sided or self.rough_dielectric or self.thin_dielectric or self.rough_plastic
@@ -286,6 +287,7 @@ class Features:
             "MCPT_MAT_THIN_DIELECTRIC": b(u.thin_dielectric),
             "MCPT_MAT_ROUGH_PLASTIC": b(u.rough_plastic),
             "MCPT_MAT_METALROUGH": b(u.metalrough),
+            "MCPT_METALROUGH_SPECULAR": b(u.metalrough and u.metalrough_specular),
             "MCPT_TRANSMISSION": b(u.transmission),
             "MCPT_DELTA": b(u.delta),
             "MCPT_MAT_TEXELS": u.material_texels,

@@ -83,6 +83,8 @@ class MaterialRow:
     metallic: float = 0.0
     metal_rough: object = None  # metalrough: the metallic-roughness TextureRef, then its texture id (_add)
     emission_texture: object = None  # the texture reference, then its id (_add); issue #22
+    specular: float = 1.0      # metalrough: KHR_materials_specular's factor and colour (issue #21 item 5)
+    specular_color: RGB = (1.0, 1.0, 1.0)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -151,7 +153,8 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
                        distribution=ym.distribution, masking=ym.masking, nonlinear=ym.nonlinear_mode,
-                       emission_texture=ym.emission_texture, **conductor_columns(ym))
+                       emission_texture=ym.emission_texture, specular=ym.specular,
+                       specular_color=tuple(ym.specular_color), **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -250,7 +253,8 @@ class MaterialResolver:
                              metal_rough=np.asarray([-1 if r.metal_rough is None else r.metal_rough for r in rows],
                                                     np.int64).reshape(-1),
                              emission_texture=np.asarray([-1 if r.emission_texture is None else r.emission_texture
-                                                          for r in rows], np.int64).reshape(-1))
+                                                          for r in rows], np.int64).reshape(-1),
+                             specular=col("specular", np.float64), specular_color=rgb("specular_color"))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -274,8 +278,21 @@ class MaterialResolver:
             if row.metal_rough is not None:
                 where = self.scene.where("materials", row.name, "metallic_roughness_texture")
                 row = replace(row, metal_rough=self._texture_id(row.metal_rough, where))
+                self._check_metal_rough(row.metal_rough, where)
             self.rows.append(row)
         return self._index[key]
+
+    def _check_metal_rough(self, t: int, where: str) -> None:
+        """Refuse a grey metallic-roughness image (issue #21 item 1): glTF reads metalness from its
+        blue and roughness from its green channel, so a grey map (1 or 2 channels, 8- or 16-bit)
+        would set both from one value: almost surely a roughness-only or occlusion map."""
+        tex = self.textures[t]
+        if tex.channels < 3:
+            kind = "grey" if tex.channels == 1 else "grey + alpha"
+            raise TextureError(f"{where}: {tex.path}: a {kind} image ({tex.channels} channel"
+                               f"{'s' if tex.channels > 1 else ''}); a metallic-roughness texture must be RGB or "
+                               f"RGBA (glTF: metalness in blue, roughness in green): a grey one is almost "
+                               f"surely a mistake (a roughness-only or occlusion map?)")
 
     def _normal_map(self, name: str, ref) -> tuple:
         """The table's normal-map column: (texture id, scale, right-handed frame, bump)."""

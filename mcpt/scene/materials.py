@@ -122,11 +122,12 @@ MATERIAL_KEYS = {
     "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
                      "two_sided"),
     "metalrough": ("albedo", "albedo_texture", "metallic", "roughness", "masking", "two_sided",
-                   "metallic_roughness_texture"),
+                   "metallic_roughness_texture", "ior", "specular", "specular_color"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
              "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior",
-             "metallic", "metallic_roughness_texture")
+             "metallic", "metallic_roughness_texture", "specular", "specular_color")
+_Unbounded = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 
 
 class Material(StrictModel):
@@ -163,7 +164,10 @@ class Material(StrictModel):
       absent as in glTF; ``masking`` as for a rough conductor. With both ``albedo`` and
       ``albedo_texture`` the base colour is their product (glTF's baseColorFactor x texture);
       ``metallic_roughness_texture`` scales ``metallic`` by its blue and ``roughness`` by its green
-      channel per texel (glTF's metallicRoughnessTexture, linear).
+      channel per texel (glTF's metallicRoughnessTexture, linear). ``ior`` (KHR_materials_ior: >= 1,
+      or 0; default 1.5), ``specular`` (KHR_materials_specular's specularFactor in [0, 1], default 1)
+      and ``specular_color`` (its specularColorFactor, >= 0, default [1, 1, 1]) set the dielectric's
+      Fresnel as those extensions define it (issue #21 item 5); the metal is unaffected.
 
     Every type may emit (``emission``, front side only) and may use smooth shading normals
     interpolated from vertex normals (``smooth_normals``). Diffuse, conductor and plastic take
@@ -190,13 +194,19 @@ class Material(StrictModel):
     metallic_roughness_texture: ImageTexture | None = None
     """Metalrough: glTF's metallicRoughnessTexture, read linearly: its blue channel times ``metallic``,
     its green times ``roughness``, per texel."""
+    specular: Annotated[float, Field(ge=0.0, le=1.0)] = 1.0
+    """Metalrough: KHR_materials_specular's specularFactor (the dielectric's F0 and F90 scale)."""
+    specular_color: Annotated[tuple[_Unbounded, _Unbounded, _Unbounded], fixed_list(3)] = (1.0, 1.0, 1.0)
+    """Metalrough: KHR_materials_specular's specularColorFactor (linear RGB, >= 0; F0 = min(f0(ior)
+    x this, 1) x specular)."""
     distribution: Literal["ggx", "beckmann"] = "ggx"
     """Rough conductor or dielectric: the microfacet distribution (mcpt/shading/microfacet.py)."""
     masking: Literal["height_correlated", "separable"] = "height_correlated"
     """Rough conductor or dielectric: the Smith masking-shadowing term, height-correlated (Heitz 2014) or
     separable G1(wo) G1(wi) (Mitsuba 3's; the Mitsuba reader picks it)."""
-    ior: Annotated[float, Field(ge=1.0, le=4.0)] = 1.5
-    """Dielectric, plastic: index of refraction (the outside is air, index 1)."""
+    ior: Annotated[float, Field(allow_inf_nan=False)] = 1.5
+    """Dielectric, plastic: index of refraction in (1, 4] (the outside is air, index 1: the relative
+    index, the denser medium inside)."""
     absorption: Absorption | None = None
     """Dielectric: Beer-Lambert absorption of light travelling inside (None: clear)."""
     interior: Medium | None = None
@@ -278,16 +288,36 @@ class Material(StrictModel):
         # ior 1 is no interface; a smooth dielectric holding an interior medium may have it: the
         # medium's index-matched boundary (Mitsuba's null BSDF around a medium, issue #25).
         matched = self.type == "dielectric" and self.interior is not None
-        if self.type in ("dielectric", "roughdielectric", "thindielectric", "roughplastic") and self.ior == 1.0 \
-                and not matched:
+        if self.type in ("dielectric", "roughdielectric", "thindielectric", "plastic", "roughplastic") \
+                and self.ior == 1.0 and not matched:  # plastic too: issue #21 item 3 (it rendered as a bare base)
             raise FieldError(("ior",), "ior 1 is no interface (the same index on both sides: the "
                                        "surface would be invisible); a dielectric needs ior > 1 "
                                        "(or an interior medium, whose boundary it then is)")
+        self._check_ior()
         if self.type in ("roughdielectric", "roughplastic") and self.roughness < ROUGH_GLASS_MIN_ALPHA:
             raise FieldError(("roughness",), f"a {self.type} needs roughness (alpha) in "
                                              f"[{ROUGH_GLASS_MIN_ALPHA:g}, 1], got {self.roughness:g} "
                                              f"(smooth glass is type: dielectric)")
         return self
+
+    def _check_ior(self) -> None:
+        """An interface's index in mcpt's range [1, 4], what one below 1 means said in words (issue
+        #21 item 3: pydantic's "greater than or equal to 1" did not)."""
+        x = self.ior
+        if self.type == "metalrough":  # a Fresnel parameter, not an interface: KHR_materials_ior's range
+            if x != 0.0 and x < 1.0:
+                raise FieldError(("ior",), f"ior {x:g}: KHR_materials_ior allows ior >= 1, or 0 (F0 = 1: the "
+                                           f"specular-glossiness conversion); below 1 is not an index mcpt reads")
+            return
+        if x > 4.0:
+            raise FieldError(("ior",), f"ior {x:g} is above 4, mcpt's range for an interface's index")
+        if x <= 0.0:
+            raise FieldError(("ior",), f"ior {x:g} is no index of refraction: ior is the relative index "
+                                       f"inside / outside (the outside is air), > 1 (the denser medium inside)")
+        if x < 1.0:
+            raise FieldError(("ior",), f"ior {x:g} < 1 is not supported: ior is the relative index inside / "
+                                       f"outside (the outside is air) and the denser medium must be inside; flip "
+                                       f"the normals (swap the sides) and give 1 / ior = {1.0 / x:.4g}")
 
     @property
     def nonlinear_mode(self) -> bool:

@@ -34,3 +34,17 @@ def ldr_size(path: Path) -> tuple[int, int] | None:
                 return w, h
             f.seek(length - 2, 1)
     return None
+
+
+#: PNG colour types (IHDR byte 25) of grey images, and their channel counts.
+_PNG_GREY_CHANNELS = {0: 1, 4: 2}
+
+
+def png_grey_channels(path: Path) -> int | None:
+    """1 or 2 for a grey or grey + alpha PNG (OpenCV expands grey + alpha to BGRA, so the decoded
+    image alone does not tell: issue #21 item 1); None for any other file."""
+    with open(path, "rb") as f:
+        head = f.read(26)
+    if len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+        return _PNG_GREY_CHANNELS.get(head[25])
+    return None

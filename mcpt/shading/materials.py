@@ -18,7 +18,9 @@
                                     conductor: Schlick's lobe scale (specular_reflectance), or
                                     eta (complex Fresnel); the coat's internal diffuse
                                     Fresnel reflectance (plastic)
-    4: k.rgb, 0                     conductor with complex Fresnel: the extinction coefficient
+    4: k.rgb, 0                     conductor with complex Fresnel: the extinction coefficient;
+                                    metal-rough: the dielectric's F0.rgb, F90 (KHR_materials_ior /
+                                    _specular; with MCPT_METALROUGH_SPECULAR)
                                     metal-rough (mcpt/shading/metalrough.py): 3.x metallic,
                                     3.y its metallic-roughness texture id (a float, -1: none),
                                     3.z the perceptual roughness factor
@@ -113,6 +115,8 @@ class MaterialTable:
     metallic: np.ndarray = None  # (M,) metal-rough: glTF metallic in [0, 1] (metalrough.py)
     metal_rough: np.ndarray = None  # (M,) metal-rough: metallic-roughness texture id, -1: none
     emission_texture: np.ndarray = None  # (M,) emission texture id, -1: none (emission_texture.py)
+    specular: np.ndarray = None  # (M,) metal-rough: KHR_materials_specular's specularFactor (metalrough.py)
+    specular_color: np.ndarray = None  # (M, 3) metal-rough: its specularColorFactor
 
     def __post_init__(self):
         m = len(self.names)
@@ -123,7 +127,8 @@ class MaterialTable:
                     "opacity": (None,) * m, "distribution": ("ggx",) * m, "masking": ("height_correlated",) * m,
                     "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65)),
                     "metallic": np.zeros(m), "metal_rough": np.full(m, -1, np.int64),
-                    "emission_texture": np.full(m, -1, np.int64)}
+                    "emission_texture": np.full(m, -1, np.int64), "specular": np.ones(m),
+                    "specular_color": np.ones((m, 3))}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -195,9 +200,10 @@ class MaterialTable:
             fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
             out[:m, 3, 3] = f32(fdr)
             self._pack_rough_plastic(out, texels)
-            metalrough.pack(self, out)
         if texels in (5, 21):
             out[:m, 4, :3] = f32(self.k)
+        if texels >= 4:  # after k: a metal-rough row's texel 4 holds its F0, F90 (metalrough.py)
+            metalrough.pack(self, out)
         return out.reshape(-1, 4)
 
     def _pack_rough_plastic(self, out: np.ndarray, texels: int) -> None:

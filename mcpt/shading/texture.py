@@ -51,6 +51,7 @@ class Texture:
     srgb: np.ndarray   # (H, W, 3) uint8, sRGB-encoded, row 0 = BOTTOM of the image (v = 0)
     uv: tuple = IDENTITY_UV  # 2x3 affine map applied to the UVs before the lookup (v up)
     linear: bool = False     # texels are c / 255 (a normal map), not sRGB-encoded
+    channels: int = 3        # the file's colour channels (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA)
 
     @property
     def width(self) -> int:
@@ -148,6 +149,9 @@ def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=
         img = ((img.astype(np.uint32) * 255 + 32767) // 65535).astype(np.uint8)
     elif img.dtype != np.uint8:
         raise TextureError(f"{path}: {img.dtype} pixels; albedo textures must be 8- or 16-bit images")
+    from .image_header import png_grey_channels
+
+    channels = png_grey_channels(path) or (1 if img.ndim == 2 else int(img.shape[2]))
     if alpha:  # the alpha channel as grey (opacity); 255 where the image has none
         has = img.ndim == 3 and img.shape[2] in (2, 4)
         a = img[:, :, -1] if has else np.full(img.shape[:2], 255, np.uint8)
@@ -162,7 +166,7 @@ def load_texture(path: Path, wrap: str = "repeat", filter: str = "bilinear", uv=
         img = img[:, :, 2::-1]  # BGR(A) -> RGB
     if img.shape[0] < 1 or img.shape[1] < 1:
         raise TextureError(f"{path}: empty image")
-    return Texture(path, wrap, filter, np.ascontiguousarray(img[::-1]), tuple(map(tuple, uv)), linear)
+    return Texture(path, wrap, filter, np.ascontiguousarray(img[::-1]), tuple(map(tuple, uv)), linear, channels)
 
 
 def srgb_to_linear(c) -> np.ndarray:

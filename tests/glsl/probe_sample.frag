@@ -40,6 +40,8 @@ uniform vec3 u_scale;   // conductor: Schlick's lobe scale
 uniform vec3 u_eta;     // conductor: complex index (fresnel: conductor)
 uniform vec3 u_k;
 uniform int u_front;
+uniform vec3 u_mr_f0;   // metal-rough: the dielectric's F0, F90 (KHR_materials_ior / _specular)
+uniform float u_mr_f90;
 layout(location = 0) out uvec4 o_out;
 
 Material probe_material() {
@@ -52,6 +54,9 @@ Material probe_material() {
 #endif
 #if MCPT_FRESNEL_COMPLEX
     m.k = u_k;
+#endif
+#if MCPT_METALROUGH_SPECULAR
+    m.mr_f0 = u_mr_f0; m.mr_f90 = u_mr_f90;
 #endif
 #if MCPT_MAT_ROUGH_PLASTIC
     m.base = 0;     // a rough plastic's table: texels of the bound material buffer

@@ -14,7 +14,11 @@ What maps (README "glTF 2.0 scenes" has the full table):
   tangents from the UVs (mcpt/shading/normal_map.py); a TANGENT attribute is not read.
 * ``alphaMode`` MASK (``alphaCutoff``) / BLEND -> ``opacity`` (+ ``opacity_cutoff`` for MASK):
   the base colour texture's alpha channel, else the factor's alpha; not on an emitter (warned).
-* ignored with a warning: occlusionTexture, other material extensions.
+* ``KHR_materials_ior`` (``ior``: >= 1, or 0) -> ``ior``; ``KHR_materials_specular``
+  (``specularFactor`` in [0, 1], ``specularColorFactor`` >= 0) -> ``specular``, ``specular_color``
+  (issue #21 item 5): the dielectric's Fresnel as the extensions define it. Their textures
+  (``specularTexture``, ``specularColorTexture``) are not read: warned, the factors alone render.
+* ignored with a warning: occlusionTexture, other material extensions (transmission, clearcoat, ...).
 
 A primitive without a material gets the spec's default material (section 3.9.6): white,
 metallic 1, roughness 1.
@@ -33,7 +37,9 @@ from .texture_transform import uv_of_khr_transform
 log = logging.getLogger("mcpt")
 
 #: Material extensions mapped here; any other is ignored with a warning.
-KNOWN_EXTENSIONS = ("KHR_materials_emissive_strength",)
+KNOWN_EXTENSIONS = ("KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_specular")
+#: KHR_materials_specular's textures, which mcpt does not read (warned).
+IGNORED_SPECULAR_TEXTURES = ("specularTexture", "specularColorTexture")
 IGNORED_TEXTURES = ("occlusionTexture",)
 
 
@@ -44,6 +50,15 @@ def _factor(g: Gltf, obj: dict, key: str, default, where: str, n: int | None = N
             isinstance(x, (int, float)) and not isinstance(x, bool) and 0 <= x < float("inf") for x in items):
         raise g.error(where, f"{key} {value!r} is not {n or 1} finite number(s) >= 0"[:200])
     return np.asarray(value, np.float64) if n is not None else float(value)
+
+
+def _unit(g: Gltf, obj: dict, key: str, default: float, where: str) -> float:
+    """A factor the glTF schema bounds to [0, 1]: above 1 is refused, not clamped (issue #21 item 2:
+    a clamped roughnessFactor 1.5 rendered as 1 without a word)."""
+    value = _factor(g, obj, key, default, where)
+    if value > 1.0:
+        raise g.error(where, f"{key} {value:g} is not in [0, 1] (the glTF 2.0 schema's range)")
+    return value
 
 
 def _texture_info(g: Gltf, info, where: str, key: str) -> dict:
@@ -96,9 +111,35 @@ def _emission(g: Gltf, m: dict, where: str) -> tuple[list[float] | None, dict | 
     return emissive.tolist(), tex
 
 
+def _ior_specular(g: Gltf, m: dict, where: str) -> dict:
+    """KHR_materials_ior and KHR_materials_specular -> ``ior``, ``specular``, ``specular_color``
+    (only those given: absent ones keep the defaults, so a plain material compiles as before)."""
+    exts, out = obj(m.get("extensions")), {}
+    if "KHR_materials_ior" in exts:
+        ext = exts["KHR_materials_ior"]
+        if not isinstance(ext, dict):
+            raise g.error(where, "extensions.KHR_materials_ior must be an object")
+        ior = ext.get("ior", 1.5)
+        if not (isinstance(ior, (int, float)) and not isinstance(ior, bool) and (ior == 0 or 1 <= ior < float("inf"))):
+            raise g.error(where, f"KHR_materials_ior.ior {ior!r} is not >= 1 or 0 (the extension's range; 0: "
+                                 f"Fresnel 1, the specular-glossiness conversion)"[:200])
+        out["ior"] = float(ior)
+    if "KHR_materials_specular" in exts:
+        ext = exts["KHR_materials_specular"]
+        if not isinstance(ext, dict):
+            raise g.error(where, "extensions.KHR_materials_specular must be an object")
+        at = f"{where}: KHR_materials_specular"
+        out["specular"] = _unit(g, ext, "specularFactor", 1.0, at)
+        out["specular_color"] = _factor(g, ext, "specularColorFactor", [1.0, 1.0, 1.0], at, 3).tolist()
+    return out
+
+
 def _warn_ignored(g: Gltf, m: dict, pbr: dict, base: np.ndarray, where: str) -> None:
     ignored = [k for k in IGNORED_TEXTURES if k in m or k in pbr]
     ignored += [f"extension {e}" for e in obj(m.get("extensions")) if e not in KNOWN_EXTENSIONS]
+    spec = obj(obj(m.get("extensions")).get("KHR_materials_specular"))
+    ignored += [f"KHR_materials_specular.{k} (its factor alone is used)" for k in IGNORED_SPECULAR_TEXTURES
+                if k in spec]
     mode = m.get("alphaMode", "OPAQUE")
     if mode not in ("OPAQUE", "MASK", "BLEND"):
         ignored.append(f"alphaMode {mode} (rendered opaque)")
@@ -126,10 +167,11 @@ def material(g: Gltf, index: int | None) -> dict:
     base = _factor(g, pbr, "baseColorFactor", [1.0, 1.0, 1.0, 1.0], where, 4)
     if (base > 1.0).any():
         raise g.error(where, f"baseColorFactor {base.tolist()} is not in [0, 1]")
-    metallic = min(_factor(g, pbr, "metallicFactor", 1.0, where), 1.0)
-    roughness = min(_factor(g, pbr, "roughnessFactor", 1.0, where), 1.0)
+    metallic = _unit(g, pbr, "metallicFactor", 1.0, where)
+    roughness = _unit(g, pbr, "roughnessFactor", 1.0, where)
     out: dict = {"type": "metalrough", "albedo": base[:3].tolist(), "metallic": metallic,
                  "roughness": roughness, "two_sided": m.get("doubleSided") is True}
+    out.update(_ior_specular(g, m, where))
     if "baseColorTexture" in pbr:  # times the factor (glsl/texture.glsl albedo_at)
         out["albedo_texture"] = _texture_info(g, pbr["baseColorTexture"], where, "baseColorTexture")
     if "metallicRoughnessTexture" in pbr:  # B metalness, G roughness, per texel (glsl/texture.glsl)

@@ -40,7 +40,8 @@ OPTIONS = ("camera",)
 #: Most triangles the placed meshes may add up to (instances counted), checked before reading.
 MAX_TRIANGLES = 2**26
 #: Extensions mcpt reads or may ignore (the rest, when required by the file, are refused).
-SUPPORTED_EXTENSIONS = ("KHR_materials_emissive_strength", "KHR_texture_transform", "KHR_lights_punctual")
+SUPPORTED_EXTENSIONS = ("KHR_materials_emissive_strength", "KHR_texture_transform", "KHR_lights_punctual",
+                        "KHR_materials_ior", "KHR_materials_specular")  # issue #21 item 5
 
 
 def split_options(overrides, path) -> tuple[dict[str, str], list[str]]:
