@@ -150,7 +150,7 @@ def texture(node: Node, raw: bool = False) -> dict:
     path = resolve_file(node, V.as_string(props["filename"]))
     if path.suffix.lower() not in TEXTURE_SUFFIXES:
         raise props["filename"].error(f"{path.suffix or '(none)'} images are not supported by mcpt "
-                                      f"(8-bit formats: {', '.join(TEXTURE_SUFFIXES)})")
+                                      f"(formats: {', '.join(TEXTURE_SUFFIXES)})")
     if not raw and "raw" in props and V.as_bool(props["raw"]):
         raise props["raw"].error("raw=true is not supported by mcpt (8-bit images are read as sRGB)")
     out: dict = {"file": str(path), **_uv(props, checkerboard=False)}
