@@ -209,3 +209,67 @@ def test_constant_exr_emitter_renders_as_its_value(gl, tmp_path):
     plain, _ = render_room(gl, room(tmp_path, f"emission: [{c[0]}, {c[1]}, {c[2]}]"), 256, 2)
     z = z_of(tex, plain)
     assert abs(float(z.mean()) * math.sqrt(z.size)) < 4 and (np.abs(z) < 6).all()
+
+
+# ------------------------------------------------------------------------------------------------
+# issue #22 item 2: encoding: srgb | linear on image texture references
+
+
+def _grey_png(path, values) -> np.ndarray:
+    import cv2
+
+    img = np.asarray(values, np.uint8)
+    cv2.imwrite(str(path), img)
+    return img
+
+
+def test_opacity_encoding_linear_reads_c_over_255_and_defaults_are_unchanged(tmp_path):
+    img = _grey_png(tmp_path / "o.png", np.arange(64, dtype=np.uint8).reshape(8, 8) * 4)
+    for key, linear in (("{file: o.png}", False), ("{file: o.png, encoding: srgb}", False),
+                        ("{file: o.png, encoding: linear}", True)):
+        world = load_world(load_scene(textured_scene(tmp_path, f"{{albedo: [0.5, 0.5, 0.5], opacity: {key}}}")))
+        (t,) = world.textures
+        want = img[::-1, :, None].repeat(3, 2) / 255.0
+        if not linear:
+            want = np.where(want <= 0.04045, want / 12.92, ((want + 0.055) / 1.055) ** 2.4)
+        np.testing.assert_array_equal(t.decoded(), want)
+
+
+def test_one_image_read_two_ways_is_two_textures(tmp_path):
+    _grey_png(tmp_path / "o.png", np.full((4, 4), 128, np.uint8))
+    world = load_world(load_scene(textured_scene(
+        tmp_path, "{albedo_texture: o.png, opacity: {file: o.png, encoding: linear}}")))
+    a, b = world.textures
+    assert not a.linear and b.linear
+    row = world.materials.names.index("floor")
+    np.testing.assert_allclose(world.materials.albedo[row], (128 / 255 + 0.055) ** 2.4 / 1.055 ** 2.4)
+
+
+def test_albedo_linear_and_metallic_roughness_srgb_on_request(tmp_path):
+    _grey_png(tmp_path / "o.png", np.full((4, 4), 128, np.uint8))
+    world = load_world(load_scene(textured_scene(tmp_path, "{albedo_texture: {file: o.png, encoding: linear}}")))
+    np.testing.assert_allclose(world.materials.albedo[world.materials.names.index("floor")], 128 / 255)
+    mr = ("{type: metalrough, albedo: [1, 1, 1], metallic_roughness_texture: {file: o.png%s}}")
+    for extra, linear in (("", True), (", encoding: srgb", False)):
+        world = load_world(load_scene(textured_scene(tmp_path, mr % extra)))
+        assert [t.linear for t in world.textures] == [linear]
+
+
+def test_bad_encoding_is_one_line_naming_the_key(tmp_path):
+    from mcpt.scene import SceneError
+
+    _grey_png(tmp_path / "o.png", np.full((4, 4), 128, np.uint8))
+    with pytest.raises(SceneError) as err:
+        load_scene(textured_scene(tmp_path, "{albedo_texture: {file: o.png, encoding: gamma}}"))
+    msg = str(err.value)
+    assert "\n" not in msg and "albedo_texture" in msg and "encoding" in msg, msg
+
+
+def test_xml_bitmap_raw_true_is_read_linearly(tmp_path):
+    from .test_textures import _xml
+
+    tex = ('<texture type="bitmap" name="reflectance"><string name="filename" value="{}"/>'
+           '<boolean name="raw" value="{}"/></texture>')
+    for raw, encoding in (("true", "linear"), ("false", "srgb")):
+        mat = next(iter(_xml(tmp_path, tex.format(SPOT_TEXTURE, raw)).values()))
+        assert mat["albedo_texture"]["encoding"] == encoding
