@@ -273,39 +273,3 @@ def test_xml_bitmap_raw_true_is_read_linearly(tmp_path):
     for raw, encoding in (("true", "linear"), ("false", "srgb")):
         mat = next(iter(_xml(tmp_path, tex.format(SPOT_TEXTURE, raw)).values()))
         assert mat["albedo_texture"]["encoding"] == encoding
-
-
-# ------------------------------------------------------------------------------------------------
-# issue #22 item 3: MTL maps mcpt does not read are warned, once per material
-
-
-MTL = """newmtl bumpy
-Kd 0.5 0.5 0.5
-map_Bump -bm 0.5 h.png
-map_Ks s.png
-newmtl shiny
-Kd 0.5 0.5 0.5
-norm n.png
-map_Pr r.png
-bump h.png
-newmtl plain
-Kd 0.5 0.5 0.5
-"""
-
-
-def test_ignored_mtl_maps_are_warned_once_per_material(tmp_path, caplog):
-    import logging
-
-    (tmp_path / "m.mtl").write_text(MTL)
-    faces = ["usemtl bumpy", "f 1/1 2/2 3/3", "usemtl shiny", "f 1/1 3/3 4/4", "usemtl plain", "f 2/2 3/3 4/4"]
-    (tmp_path / "m.obj").write_text("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
-                                    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n" + "\n".join(faces) + "\n")
-    scene = tmp_path / "s.yaml"
-    scene.write_text("camera: {position: [0.5, 0.5, 3], look_at: [0.5, 0.5, 0], vfov_deg: 40, resolution: [8, 8]}\n"
-                     "meshes:\n  - {file: m.obj}\n  - {file: m.obj, transform: {translate: [0, 0, -1]}}\n")
-    with caplog.at_level(logging.WARNING, logger="mcpt"):
-        load_world(load_scene(scene))
-    lines = [r.getMessage() for r in caplog.records if "ignored by mcpt" in r.getMessage()]
-    assert len(lines) == 2, lines  # two materials, each once although the mesh is named twice
-    assert "material 'bumpy': MTL map_Bump, map_Ks ignored" in lines[0], lines
-    assert "material 'shiny': MTL bump, norm, map_Pr ignored" in lines[1], lines

@@ -26,7 +26,6 @@ import numpy as np
 from ..shading import metalrough, roughplastic
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError
-from ..shapes.obj import ObjFile
 from .materials import ImageTexture, Material
 from .model import Mesh, Scene
 from .textures import (
@@ -40,10 +39,6 @@ from .textures import (
 )
 
 log = logging.getLogger("mcpt")
-
-#: MTL texture statements mcpt does not read, as files spell them (issue #22 item 3: they were
-#: dropped silently). A bump or normal map needs the YAML material's bump_map / normal_map.
-IGNORED_MTL_MAPS = {"bump": "bump", "map_bump": "map_Bump", "norm": "norm", "map_pr": "map_Pr", "map_ks": "map_Ks"}
 
 GLASS = ("dielectric", "roughdielectric", "thindielectric")  # no albedo
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)   # when neither the YAML nor the mesh file gives one
@@ -170,7 +165,6 @@ class MaterialResolver:
         self.textures: list[Texture] = []
         self._index: dict = {}
         self._texture_index: dict = {}
-        self._warned_mtl: set = set()
 
     def yaml_material(self, spec: Mesh) -> Material | None:
         return self.scene.materials[spec.material] if spec.material is not None else None
@@ -201,7 +195,6 @@ class MaterialResolver:
     def mesh_ids(self, mi: int, spec: Mesh, file_materials) -> np.ndarray:
         """The table id of each of the mesh's file materials (``MeshMaterial``), rows added as needed."""
         ym = self.yaml_material(spec)
-        self._warn_ignored_mtl(spec, file_materials)
         mesh_where = self.scene.where("meshes", mi, "file")
         yaml_tex = self._yaml_texture(spec)
         from_file = albedo_from_file(ym)
@@ -325,22 +318,6 @@ class MaterialResolver:
             log.warning("%s: material %r: map_d on an emitter is ignored (rendered opaque)", spec.file, mm.name)
             return None
         return (replace(ref, linear=True), None)
-
-    def _warn_ignored_mtl(self, spec: Mesh, file_materials) -> None:
-        """One warning per OBJ material whose MTL names maps mcpt does not read (issue #22 item 3).
-        Its MTL files are parsed again here (once per mesh with named materials, on an uncached load
-        only: the OBJ's bytes are searched for mtllib lines, ~5 ms per MB measured)."""
-        file = getattr(spec, "file", None)
-        named = any(m.name and m.name != "DefaultMaterial" for m in file_materials)  # not Assimp's own
-        if file is None or Path(file).suffix.lower() != ".obj" or not named:
-            return
-        declared = ObjFile.read(Path(file)).mtl.declared
-        for mm in file_materials:
-            keys = [spelled for key, spelled in IGNORED_MTL_MAPS.items() if key in declared.get(mm.name, ())]
-            if keys and (str(file), mm.name) not in self._warned_mtl:
-                self._warned_mtl.add((str(file), mm.name))
-                log.warning("%s: material %r: MTL %s ignored by mcpt (a YAML material's bump_map / normal_map "
-                            "gives a bump or normal map)", file, mm.name, ", ".join(keys))
 
     @staticmethod
     def _file_texture(mesh_where: str, spec: Mesh, mm, tmap) -> TextureRef | None:
