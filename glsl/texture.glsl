@@ -1,5 +1,5 @@
-// Albedo textures (host side: mcpt/shading/texture.py documents the buffer; UVs: pack_uvs there).
-// Texels stay sRGB-encoded, 8 bits a channel; each of the four taps of a bilinear lookup is
+// Image textures (host side: mcpt/shading/texture.py documents the buffer; UVs: pack_uvs there).
+// 8-bit texels stay sRGB-encoded, 8 bits a channel (float textures: linear float texels); each of the four taps of a bilinear lookup is
 // decoded to linear RGB before the interpolation, as a GPU's sRGB texture does.
 // A texture may carry a UV transform (Mitsuba's to_uv) and may be a procedural checkerboard
 // (glsl/checkerboard.glsl); both are flags in its header, read per lookup.
@@ -48,6 +48,11 @@ float tex_reduce(float u, uint mode) {
 
 vec3 tex_pixel(uvec4 hdr, int x, int y) {
     int i = y * int(hdr.y) + x;
+#if MCPT_FLOAT_TEXTURES
+    // Issue #22: a float texture (EXR, HDR, 16-bit), one RGBA32F texel per pixel, linear values.
+    // Compiled only for a scene that has one, so 8-bit scenes run the code they ran before.
+    if ((hdr.w & 64u) != 0u) return uintBitsToFloat(texelFetch(u_textures, int(hdr.x) + i).xyz);
+#endif
     uint p = texelFetch(u_textures, int(hdr.x) + (i >> 2))[i & 3];
     if ((hdr.w & 32u) != 0u) return vec3(uvec3(p, p >> 8, p >> 16) & 0xffu) * (1.0 / 255.0);  // linear
     return srgb_decode(p);

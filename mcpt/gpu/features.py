@@ -99,6 +99,7 @@ class Uses:
     plastic: bool = False           # diffuse base under a smooth dielectric coat present
     textures: bool = False          # some albedo is an image: UV buffer, texel buffer
     emission_textures: bool = False  # issue #22: some emission is an image (emission_texture.py)
+    float_textures: bool = False    # issue #22: some texture is EXR / HDR / 16-bit (float_texture.py)
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
@@ -124,7 +125,8 @@ class Uses:
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,
             separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True, metalrough=True,
-            metalrough_specular=True, medium=True, interior_media=True, emission_textures=True)
+            metalrough_specular=True, medium=True, interior_media=True, emission_textures=True,
+            float_textures=True)
 
     @property
     def delta(self) -> bool:
@@ -293,6 +295,7 @@ class Features:
             "MCPT_MAT_TEXELS": u.material_texels,
             "MCPT_TEXTURES": b(u.textures),
             "MCPT_EMISSION_TEXTURES": b(u.textures and u.emission_textures),
+            "MCPT_FLOAT_TEXTURES": b(u.textures and u.float_textures),
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
@@ -385,6 +388,8 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
                       tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+    if any(getattr(t, "is_float", False) for t in getattr(world, "textures", ())):  # issue #22
+        f = f.replace(float_textures=True)
     if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
         f = f.replace(camera_moves=True)
     return f

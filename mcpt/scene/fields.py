@@ -108,7 +108,7 @@ class StrictModel(BaseModel):
 
 
 #: 8-bit image formats OpenCV reads for textures (mcpt/shading/texture.py); others are refused here.
-TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+TEXTURE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".exr", ".hdr")
 
 
 def scene_path(value: Any, info: ValidationInfo, what: str = "a file path") -> Path:

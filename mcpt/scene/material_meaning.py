@@ -145,7 +145,8 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
         alpha = metalrough.alpha(ym.roughness if "roughness" in ym.model_fields_set else 1.0)
         metallic = ym.metallic if ym.metallic is not None else 1.0
     mr = ym.metallic_roughness_texture
-    mr = TextureRef(mr.file, mr.wrap, mr.filter, linear=True, uv=mr.uv) if mr is not None else None
+    if mr is not None:  # linear unless the scene says encoding: srgb (issue #22)
+        mr = TextureRef(mr.file, mr.wrap, mr.filter, linear=mr.encoding != "srgb", uv=mr.uv)
     if ym.emission_texture is not None:  # issue #22: emission scales the image (default 1)
         emission = tuple(ym.emission) if ym.emission is not None else (1.0, 1.0, 1.0)
     return MaterialRow(name, ym.type, albedo, emission, alpha=alpha, ior=ym.ior, metallic=metallic, metal_rough=mr,

@@ -34,7 +34,8 @@ from .textures import (
 class ImageTexture(StrictModel):
     """An image used as a colour (mcpt/shading/texture.py), addressed by the mesh's UVs.
 
-    8-bit images are sRGB-encoded and decoded to linear RGB; the alpha channel is ignored. UV
+    8-bit images are sRGB-encoded and decoded to linear RGB (``encoding``); EXR / HDR / 16-bit
+    images are float textures (mcpt/shading/float_texture.py); the alpha channel is ignored. UV
     (0, 0) is the image's bottom-left corner (OBJ convention: v points up).
     """
 
@@ -49,6 +50,11 @@ class ImageTexture(StrictModel):
     channel: Literal["rgb", "alpha"] = "rgb"
     """``alpha``: the image's alpha channel (linear; 1 where it has none) as a grey texture, for
     ``opacity`` (glTF's base colour alpha)."""
+    encoding: Literal["srgb", "linear"] | None = None
+    """How an 8/16-bit image's values are read (issue #22): ``srgb`` decoded by the sRGB curve,
+    ``linear`` c / 255 (c / 65535). Default: ``srgb`` for albedo, emission, opacity and
+    specular_reflectance, ``linear`` for metallic_roughness_texture. EXR / HDR are linear
+    whatever it says (Mitsuba's float bitmaps); an alpha channel is linear."""
 
     @field_validator("file", mode="before")
     @classmethod

@@ -89,8 +89,14 @@ def texture_key(ref: Any) -> tuple:
         return ("bump", str(ref.file), ref.wrap, ref.encoding)
     if isinstance(ref, CheckerboardTexture):
         return ("checkerboard", ref.color0, ref.color1, affine_of(ref))
-    return (str(ref.file), ref.wrap, ref.filter, affine_of(ref), getattr(ref, "channel", "rgb"),
-            getattr(ref, "linear", False))
+    return (str(ref.file), ref.wrap, ref.filter, affine_of(ref), getattr(ref, "channel", "rgb"), is_linear(ref))
+
+
+def is_linear(ref: Any) -> bool:
+    """Whether an image reference reads c / 255 rather than sRGB-decoding: its ``encoding`` where
+    the scene gives one (issue #22), else its use's default (``linear``: map_d, metallic-roughness)."""
+    encoding = getattr(ref, "encoding", None)
+    return encoding == "linear" if encoding is not None else bool(getattr(ref, "linear", False))
 
 
 def build_texture(ref: Any):
@@ -102,7 +108,7 @@ def build_texture(ref: Any):
     if isinstance(ref, CheckerboardTexture):
         return Checkerboard(tuple(ref.color0), tuple(ref.color1), affine_of(ref))
     alpha = getattr(ref, "channel", "rgb") == "alpha"
-    linear = alpha or getattr(ref, "linear", False)
+    linear = alpha or is_linear(ref)
     return load_texture(ref.file, ref.wrap, ref.filter, affine_of(ref), linear=linear, alpha=alpha)
 
 

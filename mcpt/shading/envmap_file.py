@@ -18,13 +18,12 @@ Refused, each in one line that names the file (:class:`EnvMapError`):
 from __future__ import annotations
 
 import logging
-import re
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import McptError
-from .image_header import ldr_size
+from .image_header import exr_size, hdr_size, ldr_size
 
 log = logging.getLogger("mcpt")
 
@@ -53,36 +52,11 @@ def _one_line(text: object) -> str:
 
 
 def _exr_size(path: Path) -> tuple[int, int]:
-    import OpenEXR
-
-    try:
-        header = OpenEXR.File(str(path), header_only=True).header()
-    except (RuntimeError, OSError, ValueError) as exc:
-        raise EnvMapError(f"{path}: not an OpenEXR image, or unreadable ({_one_line(exc)})") from None
-    lo, hi = header["dataWindow"]
-    return int(hi[0]) - int(lo[0]) + 1, int(hi[1]) - int(lo[1]) + 1
-
-
-_HDR_RES = re.compile(rb"^([-+])([XY])\s+(\d+)\s+([-+])([XY])\s+(\d+)\s*$")
+    return exr_size(path, EnvMapError)
 
 
 def _hdr_size(path: Path) -> tuple[int, int]:
-    """Radiance RGBE: ``#?RADIANCE`` (or ``#?RGBE``), header lines, a blank line, then the
-    resolution line, e.g. ``-Y 1024 +X 2048`` (rows first)."""
-    with open(path, "rb") as f:
-        head = f.read(1 << 16)
-    lines = head.split(b"\n")
-    if not lines[0].startswith((b"#?RADIANCE", b"#?RGBE")):
-        raise EnvMapError(f"{path}: not a Radiance .hdr image (no #?RADIANCE signature)")
-    try:
-        blank = lines.index(b"", 1)
-        m = _HDR_RES.match(lines[blank + 1])
-    except (ValueError, IndexError):
-        m = None
-    if m is None:
-        raise EnvMapError(f"{path}: not a Radiance .hdr image (no resolution line in its header)")
-    first, second = int(m.group(3)), int(m.group(6))
-    return (second, first) if m.group(2) == b"Y" else (first, second)
+    return hdr_size(path, EnvMapError)
 
 
 def _check_size(path: Path, size: tuple[int, int] | None) -> None:
@@ -100,21 +74,28 @@ def _check_size(path: Path, size: tuple[int, int] | None) -> None:
 # Decoding
 
 
-def _read_exr(path: Path) -> np.ndarray:
+def _read_exr(path: Path, error: type[Exception] = EnvMapError, alpha: bool = False) -> np.ndarray:
+    """(H, W, 3) float32 R, G, B (or Y) of an EXR, row 0 at the top; ``alpha``: its A channel
+    (1 where it has none) in all three (a texture's opacity, mcpt/shading/float_texture.py)."""
     import OpenEXR
 
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
             ch = {k: np.asarray(v.pixels) for k, v in f.channels().items()}
     except (RuntimeError, OSError, ValueError) as exc:
-        raise EnvMapError(f"{path}: not an OpenEXR image, or unreadable ({_one_line(exc)})") from None
+        raise error(f"{path}: not an OpenEXR image, or unreadable ({_one_line(exc)})") from None
+    if alpha:
+        a = ch.get("A")
+        shape = next(iter(ch.values())).shape if ch else (0, 0)
+        return np.repeat((np.asarray(a, np.float32) if a is not None else np.ones(shape, np.float32))[..., None],
+                         3, axis=-1)
     if all(c in ch for c in "RGB"):
         planes = [ch[c] for c in "RGB"]
     elif "Y" in ch:
         planes = [ch["Y"]] * 3
     else:
         names = ", ".join(sorted(ch)[:6])
-        raise EnvMapError(f"{path}: no R, G, B (or Y) channels in the EXR; it has {names}")
+        raise error(f"{path}: no R, G, B (or Y) channels in the EXR; it has {names}")
     return np.stack([np.asarray(p, np.float32) for p in planes], axis=-1)
 
 
@@ -145,8 +126,10 @@ def _read_cv2(path: Path, hdr: bool) -> np.ndarray:
     raise EnvMapError(f"{path}: {img.dtype} pixels; an LDR environment map must be 8- or 16-bit")
 
 
-def check_texels(img: np.ndarray, where: str) -> None:
-    """Refuse NaN, infinite or negative texels, with their count (``where`` names the source)."""
+def check_texels(img: np.ndarray, where: str, what: str = "an environment map", holds: str = "radiance",
+                 error: type[Exception] = EnvMapError) -> None:
+    """Refuse NaN, infinite or negative texels, with their count (``where`` names the source;
+    ``what`` / ``holds`` / ``error``: a surface texture's words and error class)."""
     lo, hi = float(img.min()), float(img.max())  # NaN propagates through min / max
     if np.isfinite(lo) and np.isfinite(hi) and lo >= 0.0:
         return
@@ -154,10 +137,9 @@ def check_texels(img: np.ndarray, where: str) -> None:
     bad = int(img.shape[0] * img.shape[1] - np.count_nonzero(finite))
     negative = int(np.count_nonzero((np.where(finite[..., None], img, 0.0) < 0.0).any(axis=-1)))
     if bad or negative:
-        what = [f"{bad} NaN or infinite" if bad else "", f"{negative} negative" if negative else ""]
-        raise EnvMapError(f"{where}: {' and '.join(w for w in what if w)} texels of "
-                          f"{img.shape[1]} x {img.shape[0]}; an environment map must hold finite, "
-                          f"non-negative radiance")
+        counts = [f"{bad} NaN or infinite" if bad else "", f"{negative} negative" if negative else ""]
+        raise error(f"{where}: {' and '.join(w for w in counts if w)} texels of "
+                    f"{img.shape[1]} x {img.shape[0]}; {what} must hold finite, non-negative {holds}")
 
 
 def read_envmap_image(path: str | Path) -> tuple[np.ndarray, str | None]:

@@ -113,11 +113,11 @@ def check_normal_map(texture) -> None:
     """Refuse an image that is no tangent-space normal map: a grey (one-channel) image, or one
     whose texels do not decode to unit vectors pointing out of the surface (an sRGB-encoded or
     height image read as linear gives median |2c - 1| far from 1 or z <= 0)."""
-    rgb = texture.srgb.reshape(-1, 3).astype(np.float64)
+    rgb = texture.decoded().reshape(-1, 3)  # c / 255, or a float texture's values (issue #22)
     if (rgb[:, 0] == rgb[:, 1]).all() and (rgb[:, 1] == rgb[:, 2]).all():
         raise TextureError(f"{texture.path}: one channel (grey): a normal map needs "
                            "x, y, z in R, G, B (a height map is a bump map)")
-    n = rgb / 255.0 * 2.0 - 1.0
+    n = rgb * 2.0 - 1.0
     length = np.median(np.linalg.norm(n, axis=1))
     if not 0.85 <= length <= 1.15 or np.median(n[:, 2]) <= 0.0:
         raise TextureError(f"{texture.path}: not a tangent-space normal map (median "

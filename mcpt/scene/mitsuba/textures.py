@@ -138,7 +138,8 @@ def bump_map(bsdf: Node, ids: dict[str, Node], nested_material) -> dict:
 def texture(node: Node, raw: bool = False) -> dict:
     """A ``<texture>`` as mcpt's texture data (``albedo_texture``); one located error if refused.
     A bitmap's 8-bit images are sRGB-decoded, which is what Mitsuba does with ``raw=false`` (the
-    default) for PNG/JPEG; ``raw=true`` is refused (``raw``: a normal map's, read linearly)."""
+    default) for PNG/JPEG; ``raw=true``: ``encoding: linear`` (issue #22; a normal or bump map's
+    ``raw`` is read by its caller)."""
     kind = node.get("type")
     if kind not in SUPPORTED:
         raise node.error(f"not supported by mcpt (supported textures: {', '.join(SUPPORTED)})")
@@ -150,10 +151,10 @@ def texture(node: Node, raw: bool = False) -> dict:
     path = resolve_file(node, V.as_string(props["filename"]))
     if path.suffix.lower() not in TEXTURE_SUFFIXES:
         raise props["filename"].error(f"{path.suffix or '(none)'} images are not supported by mcpt "
-                                      f"(8-bit formats: {', '.join(TEXTURE_SUFFIXES)})")
-    if not raw and "raw" in props and V.as_bool(props["raw"]):
-        raise props["raw"].error("raw=true is not supported by mcpt (8-bit images are read as sRGB)")
+                                      f"(formats: {', '.join(TEXTURE_SUFFIXES)})")
     out: dict = {"file": str(path), **_uv(props, checkerboard=False)}
+    if not raw and "raw" in props:  # Mitsuba's raw: no sRGB decoding of 8-bit values
+        out["encoding"] = "linear" if V.as_bool(props["raw"]) else "srgb"
     if "wrap_mode" in props:
         wrap = V.as_string(props["wrap_mode"])
         if wrap not in ("repeat", "mirror", "clamp"):
