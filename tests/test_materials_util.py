@@ -37,7 +37,7 @@ def probe(gl, mode: str, items: np.ndarray, *, tbos=None, **uniforms) -> np.ndar
     unis = {"u_mode": MODE[mode]}
     # Conductor parameters a test does not name: Schlick with lobe scale 1 (today's conductor).
     uniforms = {"flags": 0, "scale": (1.0, 1.0, 1.0), "eta": (1.0, 1.0, 1.0), "k": (0.0, 0.0, 0.0),
-                **uniforms}
+                "spec_r": (1.0, 1.0, 1.0), "spec_t": (1.0, 1.0, 1.0), **uniforms}  # issue #22: factors 1
     for k, v in uniforms.items():
         if k == "type":
             v = TYPE[v]

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..shading import metalrough, roughplastic
+from ..shading import metalrough, roughplastic, specular_weights
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError
 from .materials import ImageTexture, Material
@@ -83,6 +83,7 @@ class MaterialRow:
     metallic: float = 0.0
     metal_rough: object = None  # metalrough: the metallic-roughness TextureRef, then its texture id (_add)
     emission_texture: object = None  # the texture reference, then its id (_add); issue #22
+    spec_weights: object = None  # issue #22: (reflectance, transmittance), RGB or texture, then (rgb, id) (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -151,7 +152,8 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
                        distribution=ym.distribution, masking=ym.masking, nonlinear=ym.nonlinear_mode,
-                       emission_texture=ym.emission_texture, **conductor_columns(ym))
+                       emission_texture=ym.emission_texture, spec_weights=specular_weights.column(ym),
+                       **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -184,6 +186,9 @@ class MaterialResolver:
         if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity
                                                                          or ym.metallic_roughness_texture
                                                                          or ym.emission_texture)):
+            return True
+        if ym is not None and specular_weights.column(ym) is not None \
+                and any(not isinstance(c, tuple) for c in specular_weights.column(ym)):  # issue #22
             return True
         if any(m.ke_map is not None for m in file_materials) and (ym is None or ym.emission is None):
             return True
@@ -250,7 +255,8 @@ class MaterialResolver:
                              metal_rough=np.asarray([-1 if r.metal_rough is None else r.metal_rough for r in rows],
                                                     np.int64).reshape(-1),
                              emission_texture=np.asarray([-1 if r.emission_texture is None else r.emission_texture
-                                                          for r in rows], np.int64).reshape(-1))
+                                                          for r in rows], np.int64).reshape(-1),
+                             spec_weights=tuple(r.spec_weights for r in rows))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -274,8 +280,22 @@ class MaterialResolver:
             if row.metal_rough is not None:
                 where = self.scene.where("materials", row.name, "metallic_roughness_texture")
                 row = replace(row, metal_rough=self._texture_id(row.metal_rough, where))
+            if row.spec_weights is not None:  # issue #22
+                row = replace(row, spec_weights=self._spec_weights(row.name, row.spec_weights))
             self.rows.append(row)
         return self._index[key]
+
+    def _spec_weights(self, name: str, pair) -> tuple:
+        """The table's specular-weight column: ((rgb, texture id), (rgb, texture id)); a texture's
+        rgb is its mean (informative, and a rough plastic's coat sampling weight, as Mitsuba's)."""
+        out = []
+        for key, value in zip(("specular_reflectance", "specular_transmittance"), pair):
+            if isinstance(value, tuple):
+                out.append((value, -1))
+                continue
+            t = self._texture_id(value, self.scene.where("materials", name, key))
+            out.append((tuple(self.textures[t].mean_linear()), t))
+        return tuple(out)
 
     def _normal_map(self, name: str, ref) -> tuple:
         """The table's normal-map column: (texture id, scale, right-handed frame, bump)."""
