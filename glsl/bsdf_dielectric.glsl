@@ -13,10 +13,10 @@ bool dielectric_sample(Material m, vec3 n, vec3 wo, bool front, float u, inout B
     s.pdf = 0.0;
     if (u < F) {
         s.wi = 2.0 * cos_o * n - wo;
-        s.weight = vec3(1.0);
+        s.weight = SPEC_R(m);  // Mitsuba's specular_reflectance (issue #22): the lobe choice stays F
     } else {
         s.wi = normalize((cos_o / eta - cos_t) * n - wo / eta);
-        s.weight = vec3(1.0 / (eta * eta));
+        s.weight = vec3(1.0 / (eta * eta)) * SPEC_T(m);  // and its specular_transmittance
         s.transmit = true;
         s.eta2 = eta * eta;
     }

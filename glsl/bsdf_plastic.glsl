@@ -35,7 +35,7 @@ bool plastic_sample(Material m, vec3 n, vec3 wo, vec2 u, inout BsdfSample s) {
     float ps = plastic_spec_prob(m, Fo);
     if (u.x < ps) {
         s.wi = 2.0 * cos_o * n - wo;
-        s.weight = vec3(Fo / ps);
+        s.weight = vec3(Fo / ps) * SPEC_R(m);  // Mitsuba's specular_reflectance (issue #22)
         s.pdf = 0.0;
         s.delta = true;
         return true;

@@ -37,12 +37,12 @@ vec3 roughdielectric_eval(Material m, vec3 n, vec3 wo, vec3 wi, bool with_t, out
     float F = fresnel_dielectric(oh, eta, cos_t);
     if (refl) {
         pdf = q * F / (4.0 * ih);
-        return vec3(F * dg / (4.0 * o.z));
+        return vec3(F * dg / (4.0 * o.z)) * SPEC_R(m);  // Mitsuba's specular_reflectance (issue #22)
     }
     float den = oh + eta * ih;
     den *= den;
     pdf = q * (1.0 - F) * eta * eta * -ih / den;
-    return vec3((1.0 - F) * dg * oh * -ih / (o.z * den));
+    return vec3((1.0 - F) * dg * oh * -ih / (o.z * den)) * SPEC_T(m);  // and specular_transmittance
 }
 
 // u.xy: the microfacet normal, u.z: reflect (u.z < F) or refract.
@@ -60,6 +60,7 @@ bool roughdielectric_sample(Material m, vec3 n, vec3 wo, vec3 u, inout BsdfSampl
     float F = fresnel_dielectric(oh, eta, cos_t);
     vec3 i;
     float w;
+    vec3 c = SPEC_R(m);  // issue #22: the lobe's factor (the lobe choice stays F)
     if (u.z < F) {
         i = 2.0 * oh * h - o;
         if (i.z <= 0.0) return false;
@@ -74,8 +75,9 @@ bool roughdielectric_sample(Material m, vec3 n, vec3 wo, vec3 u, inout BsdfSampl
         s.transmit = true;
         s.eta2 = eta * eta;
         s.delta = true;                      // not light-sampled (see above)
+        c = SPEC_T(m);
     }
-    s.weight = vec3(w * mf_G2(lo, mf_lambda(i, m.alpha, m.flags), m.flags));
+    s.weight = vec3(w * mf_G2(lo, mf_lambda(i, m.alpha, m.flags), m.flags)) * c;
     s.wi = normalize(i.x * t + i.y * b + i.z * n);
     return true;
 }

@@ -41,7 +41,7 @@ vec3 roughplastic_eval(Material m, vec3 n, vec3 wo, vec3 wi, out float pdf) {
     vec3 base = m.albedo / (1.0 - k) * (i.z * t_i * t_o / (PI * m.ior * m.ior));
     float p = roughplastic_p_coat(m, t_o);
     pdf = p * d * mf_pdf_h_over_D(o, h, lo, m.flags) / (4.0 * oh) + (1.0 - p) * i.z / PI;
-    return vec3(coat) + base;
+    return vec3(coat) * SPEC_R(m) + base;  // Mitsuba's specular_reflectance on the coat (issue #22)
 }
 
 bool roughplastic_sample(Material m, vec3 n, vec3 wo, vec2 u, inout BsdfSample s) {

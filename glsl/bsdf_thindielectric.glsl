@@ -13,11 +13,12 @@ bool thindielectric_sample(Material m, vec3 n, vec3 wo, float u, inout BsdfSampl
     float r = fresnel_dielectric(cos_o, m.ior, cos_t);
     s.delta = true;
     s.pdf = 0.0;
-    s.weight = vec3(1.0);
     if (u < 2.0 * r / (1.0 + r)) {
         s.wi = 2.0 * cos_o * n - wo;
+        s.weight = SPEC_R(m);  // Mitsuba's specular_reflectance / _transmittance (issue #22)
     } else {
         s.wi = -wo;
+        s.weight = SPEC_T(m);
         s.transmit = true;
     }
     return true;

@@ -5,6 +5,8 @@
 //   2 (alpha, ior, texture id, flags)  3 (sigma_a.rgb, fdr_int)          -- when MCPT_MAT_TEXELS >= 4
 //   4 (k.rgb, 0)                       -- with a complex-Fresnel conductor (MCPT_FRESNEL_COMPLEX)
 //     metal-rough: (F0.rgb, F90), KHR_materials_ior / _specular -- MCPT_METALROUGH_SPECULAR
+//   MCPT_SPEC_TEXEL, +1: (specular_reflectance.rgb, texture id), (specular_transmittance.rgb, texture
+//     id) -- MCPT_SPECULAR_WEIGHTS (issue #22, glsl/specular_weights.glsl)
 //   the last 16: a rough plastic's transmittance table (bsdf_roughplastic.glsl) -- MCPT_MAT_ROUGH_PLASTIC
 // light_pdf_area = luminance(Le) / total emitted power: the density, per unit area, with which
 // next-event estimation picks a point on a triangle of this material (needed for MIS).
@@ -55,7 +57,22 @@ struct Material {
 #if MCPT_METALROUGH_SPECULAR
     vec3 mr_f0; float mr_f90;  // metal-rough: the dielectric's Fresnel F0, F90 (bsdf_metalrough.glsl)
 #endif
+#if MCPT_SPECULAR_WEIGHTS
+    vec3 spec_r; int spec_r_tex;  // issue #22: Mitsuba's specular_reflectance (texture id, -1: none)
+    vec3 spec_t; int spec_t_tex;  // and specular_transmittance (glass)
+#endif
 };
+
+// The factors on a glass's (plastic coat's) reflected and transmitted lobes, as Mitsuba's
+// specular_reflectance / specular_transmittance: constant 1 (folded away) unless some material
+// has one (issue #22, mcpt/shading/specular_weights.py).
+#if MCPT_SPECULAR_WEIGHTS
+#define SPEC_R(m) ((m).spec_r)
+#define SPEC_T(m) ((m).spec_t)
+#else
+#define SPEC_R(m) vec3(1.0)
+#define SPEC_T(m) vec3(1.0)
+#endif
 
 Material material(int id) {
     int base = MCPT_MAT_TEXELS * id;
@@ -87,6 +104,12 @@ Material material(int id) {
 #if MCPT_METALROUGH_SPECULAR
     uvec4 e = texelFetch(u_materials, base + 4);
     m.mr_f0 = uintBitsToFloat(e.xyz); m.mr_f90 = uintBitsToFloat(e.w);
+#endif
+#if MCPT_SPECULAR_WEIGHTS
+    uvec4 sr = texelFetch(u_materials, base + MCPT_SPEC_TEXEL);
+    uvec4 st = texelFetch(u_materials, base + MCPT_SPEC_TEXEL + 1);
+    m.spec_r = uintBitsToFloat(sr.xyz); m.spec_r_tex = int(sr.w);
+    m.spec_t = uintBitsToFloat(st.xyz); m.spec_t_tex = int(st.w);
 #endif
     return m;
 }

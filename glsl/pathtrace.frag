@@ -7,6 +7,7 @@
 #include "materials.glsl"
 #include "normals.glsl"
 #include "texture.glsl"
+#include "specular_weights.glsl"
 #include "normal_map.glsl"
 #include "camera.glsl"
 #include "path_state.glsl"
@@ -96,6 +97,9 @@ bool path_step(inout Path P) {
     vec3 ns = shading_normal(m, h, ng, cos_o, wo);  // normals.glsl
     if (!normal_map_apply(h, cos_o < 0.0, wo, ns)) return false;  // normal_map.glsl
     m.albedo = albedo_at(m, h);                     // texture.glsl
+#if MCPT_SPECULAR_WEIGHTS
+    specular_weights_at(m, h);                      // specular_weights.glsl (issue #22)
+#endif
 #if MCPT_MAT_METALROUGH
     metalrough_at(m, h);                            // texture.glsl: glTF's metallicRoughnessTexture
 #endif

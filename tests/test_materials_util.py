@@ -38,7 +38,8 @@ def probe(gl, mode: str, items: np.ndarray, *, tbos=None, features=None, **unifo
     # Conductor parameters a test does not name: Schlick with lobe scale 1 (today's conductor).
     # Metal-rough: the plain appendix-B dielectric Fresnel (F0 0.04, F90 1) unless a test names one.
     uniforms = {"flags": 0, "scale": (1.0, 1.0, 1.0), "eta": (1.0, 1.0, 1.0), "k": (0.0, 0.0, 0.0),
-                "mr_f0": (0.04, 0.04, 0.04), "mr_f90": 1.0, **uniforms}
+                "mr_f0": (0.04, 0.04, 0.04), "mr_f90": 1.0, "spec_r": (1.0, 1.0, 1.0), "spec_t": (1.0, 1.0, 1.0),
+                **uniforms}  # issue #22: specular factors 1
     for k, v in uniforms.items():
         if k == "type":
             v = TYPE[v]

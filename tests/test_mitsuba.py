@@ -286,8 +286,6 @@ REFUSALS = [
     ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Xx"/></bsdf></shape>',
      r"not among Mitsuba 3's presets"),
     ('<shape type="sphere"><float name="radius" value="$r"/></shape>', r"undefined parameter \$r"),
-    ('<shape type="sphere"><bsdf type="dielectric"><rgb name="specular_transmittance" value="0.5"/></bsdf>'
-     '</shape>', r"specular_transmittance is not supported"),
 ]
 
 

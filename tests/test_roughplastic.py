@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mcpt.gpu.features import for_world
-from mcpt.scene import SceneError, load_scene
+from mcpt.scene import load_scene
 from mcpt.shading import microfacet as MF
 from mcpt.shading import roughplastic as RP
 from mcpt.shading.materials import FLAG_NONLINEAR, fresnel_dielectric
@@ -128,9 +128,10 @@ def test_compiled_only_when_used_and_bad_input(tmp_path):
     assert (m.roughness, m.distribution, m.masking, m.nonlinear, m.albedo) == (
         0.1, "ggx", "separable", True, (0.2, 0.4, 0.6))
     assert abs(m.ior - 1.49 / 1.000277) < 1e-9
-    with pytest.raises(SceneError, match="specular_reflectance is not supported"):
-        load_scene(write_xml(tmp_path, '<shape type="sphere"><bsdf type="roughplastic">'
+    # Refused before issue #22; mapped now (tests/test_specular_weights.py).
+    m = load_scene(write_xml(tmp_path, '<shape type="sphere"><bsdf type="roughplastic">'
                                        '<rgb name="specular_reflectance" value="0.5"/></bsdf></shape>'))
+    assert [x.specular_reflectance for x in m.materials.values()] == [(0.5, 0.5, 0.5)]
 
 
 @pytest.mark.parametrize("dist", MF.DISTRIBUTIONS)

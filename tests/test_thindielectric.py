@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mcpt.gpu.features import for_world
-from mcpt.scene import SceneError, load_scene, parse_scene
+from mcpt.scene import load_scene, parse_scene
 from mcpt.shading.materials import fresnel_dielectric
 from mcpt.shading.thindielectric import reflectance
 from mcpt.shapes.world import load_world
@@ -103,6 +103,7 @@ def test_compiled_only_when_used_and_bad_input(tmp_path):
     <shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"""
     m = [m for m in load_scene(write_xml(tmp_path, body)).materials.values() if m.type == "thindielectric"]
     assert len(m) == 1 and abs(m[0].ior - 1.333 / 1.000277) < 1e-9
-    with pytest.raises(SceneError, match="specular_transmittance is not supported"):
-        load_scene(write_xml(tmp_path, '<shape type="sphere"><bsdf type="thindielectric">'
+    # Refused before issue #22; mapped now (tests/test_specular_weights.py).
+    m = load_scene(write_xml(tmp_path, '<shape type="sphere"><bsdf type="thindielectric">'
                                        '<rgb name="specular_transmittance" value="0.5"/></bsdf></shape>'))
+    assert [x.specular_transmittance for x in m.materials.values()] == [(0.5, 0.5, 0.5)]

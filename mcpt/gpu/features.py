@@ -25,7 +25,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..scene.animation import camera_moves
-from ..shading import emission_texture, metalrough, microfacet, thindielectric
+from ..shading import emission_texture, metalrough, microfacet, specular_weights, thindielectric
 from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
@@ -100,6 +100,7 @@ class Uses:
     textures: bool = False          # some albedo is an image: UV buffer, texel buffer
     emission_textures: bool = False  # issue #22: some emission is an image (emission_texture.py)
     float_textures: bool = False    # issue #22: some texture is EXR / HDR / 16-bit (float_texture.py)
+    specular_weights: bool = False  # issue #22: some glass / plastic has a specular factor != 1 (2 texels)
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
@@ -126,7 +127,7 @@ class Uses:
             fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,
             separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True, metalrough=True,
             metalrough_specular=True, medium=True, interior_media=True, emission_textures=True,
-            float_textures=True)
+            float_textures=True, specular_weights=True)
 
     @property
     def delta(self) -> bool:
@@ -142,13 +143,26 @@ class Uses:
     def material_texels(self) -> int:
         """Texels per material in the table: 2 for diffuse-only scenes, 4 with any parameter, 5
         with a complex-Fresnel conductor (its k)."""
-        table = 16 if self.rough_plastic else 0
-        if (self.conductor and self.fresnel_complex) or (self.metalrough and self.metalrough_specular):
+        table = (16 if self.rough_plastic else 0) + (2 if self.specular_weights else 0)
+        if self.fifth_texel:
             return 5 + table
         extra = (self.conductor or self.dielectric or self.plastic or self.textures or self.smooth_normals
                  or self.one_sided or self.rough_dielectric or self.thin_dielectric or self.rough_plastic
                  or self.metalrough)
         return (4 if extra else 2) + table
+
+    @property
+    def fifth_texel(self) -> bool:
+        """Texel 4 in use: a complex-Fresnel conductor's k, or a metal-rough row's F0, F90
+        (KHR_materials_ior / _specular, issue #21)."""
+        return (self.conductor and self.fresnel_complex) or (self.metalrough and self.metalrough_specular)
+
+    @property
+    def spec_texel(self) -> int:
+        """The first of the 2 specular-weight texels (issue #22), after texel 4 if any; 0: none."""
+        if not self.specular_weights:
+            return 0
+        return 5 if self.fifth_texel else 4
 
     @property
     def written_out(self) -> int:
@@ -293,6 +307,8 @@ class Features:
             "MCPT_TRANSMISSION": b(u.transmission),
             "MCPT_DELTA": b(u.delta),
             "MCPT_MAT_TEXELS": u.material_texels,
+            "MCPT_SPECULAR_WEIGHTS": b(u.specular_weights),
+            "MCPT_SPEC_TEXEL": u.spec_texel,
             "MCPT_TEXTURES": b(u.textures),
             "MCPT_EMISSION_TEXTURES": b(u.textures and u.emission_textures),
             "MCPT_FLOAT_TEXTURES": b(u.textures and u.float_textures),
@@ -378,7 +394,8 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         one_sided=mt.one_sided_used(ids), normal_maps=mt.normal_mapped(ids),
         opacity=mt.cut_out(ids), **medium_uses(world), **{"bvh_dense": world.bvh.dense, **flags})
     f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids), **metalrough.uses(mt, ids),
-                  **camera_uses(world.scene.camera), **emission_texture.uses(mt, ids))
+                  **camera_uses(world.scene.camera), **emission_texture.uses(mt, ids),
+                  **specular_weights.uses(mt, ids))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

@@ -66,7 +66,8 @@ def pack(world: World, features: Features) -> Packed:
     buffers = {"tris": pack_triangles(world.tris, world.tri_material),
                "materials": world.materials.pack(
                    material_light_pdf_area(world.materials.emission, world.lights.total_power),
-                   texels=features.material_texels, emission_textures=features.compiled.emission_textures)}
+                   texels=features.material_texels, emission_textures=features.compiled.emission_textures,
+                   spec_texel=features.compiled.spec_texel)}
     if features.bvh:
         buffers["nodes"] = world.bvh.gpu_nodes(world.tris, dense=features.bvh_dense)
     if features.nee:

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..shading import metalrough, roughplastic
+from ..shading import metalrough, roughplastic, specular_weights
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError
 from .materials import ImageTexture, Material
@@ -85,6 +85,7 @@ class MaterialRow:
     emission_texture: object = None  # the texture reference, then its id (_add); issue #22
     specular: float = 1.0      # metalrough: KHR_materials_specular's factor and colour (issue #21 item 5)
     specular_color: RGB = (1.0, 1.0, 1.0)
+    spec_weights: object = None  # issue #22: (reflectance, transmittance), RGB or texture, then (rgb, id) (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -155,7 +156,8 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
                        distribution=ym.distribution, masking=ym.masking, nonlinear=ym.nonlinear_mode,
                        emission_texture=ym.emission_texture, specular=ym.specular,
-                       specular_color=tuple(ym.specular_color), **conductor_columns(ym))
+                       specular_color=tuple(ym.specular_color), spec_weights=specular_weights.column(ym),
+                       **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -188,6 +190,9 @@ class MaterialResolver:
         if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity
                                                                          or ym.metallic_roughness_texture
                                                                          or ym.emission_texture)):
+            return True
+        if ym is not None and specular_weights.column(ym) is not None \
+                and any(not isinstance(c, tuple) for c in specular_weights.column(ym)):  # issue #22
             return True
         if any(m.ke_map is not None for m in file_materials) and (ym is None or ym.emission is None):
             return True
@@ -255,7 +260,8 @@ class MaterialResolver:
                                                     np.int64).reshape(-1),
                              emission_texture=np.asarray([-1 if r.emission_texture is None else r.emission_texture
                                                           for r in rows], np.int64).reshape(-1),
-                             specular=col("specular", np.float64), specular_color=rgb("specular_color"))
+                             specular=col("specular", np.float64), specular_color=rgb("specular_color"),
+                             spec_weights=tuple(r.spec_weights for r in rows))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -280,6 +286,8 @@ class MaterialResolver:
                 where = self.scene.where("materials", row.name, "metallic_roughness_texture")
                 row = replace(row, metal_rough=self._texture_id(row.metal_rough, where))
                 self._check_metal_rough(row.metal_rough, where)
+            if row.spec_weights is not None:  # issue #22
+                row = replace(row, spec_weights=self._spec_weights(row.name, row.spec_weights))
             self.rows.append(row)
         return self._index[key]
 
@@ -294,6 +302,18 @@ class MaterialResolver:
                                f"{'s' if tex.channels > 1 else ''}); a metallic-roughness texture must be RGB or "
                                f"RGBA (glTF: metalness in blue, roughness in green): a grey one is almost "
                                f"surely a mistake (a roughness-only or occlusion map?)")
+
+    def _spec_weights(self, name: str, pair) -> tuple:
+        """The table's specular-weight column: ((rgb, texture id), (rgb, texture id)); a texture's
+        rgb is its mean (informative, and a rough plastic's coat sampling weight, as Mitsuba's)."""
+        out = []
+        for key, value in zip(("specular_reflectance", "specular_transmittance"), pair):
+            if isinstance(value, tuple):
+                out.append((value, -1))
+                continue
+            t = self._texture_id(value, self.scene.where("materials", name, key))
+            out.append((tuple(self.textures[t].mean_linear()), t))
+        return tuple(out)
 
     def _normal_map(self, name: str, ref) -> tuple:
         """The table's normal-map column: (texture id, scale, right-handed frame, bump)."""

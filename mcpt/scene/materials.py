@@ -121,18 +121,19 @@ MATERIAL_KEYS = {
     "diffuse": ("albedo", "albedo_texture", "two_sided"),
     "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
                   "specular_reflectance", "two_sided", "distribution", "masking"),
-    "dielectric": ("ior", "absorption", "interior"),
-    "plastic": ("albedo", "albedo_texture", "ior", "nonlinear", "two_sided"),
-    "roughdielectric": ("ior", "roughness", "distribution", "masking"),
-    "thindielectric": ("ior",),
+    "dielectric": ("ior", "absorption", "interior", "specular_reflectance", "specular_transmittance"),
+    "plastic": ("albedo", "albedo_texture", "ior", "nonlinear", "two_sided", "specular_reflectance"),
+    "roughdielectric": ("ior", "roughness", "distribution", "masking", "specular_reflectance",
+                        "specular_transmittance"),
+    "thindielectric": ("ior", "specular_reflectance", "specular_transmittance"),
     "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
-                     "two_sided"),
+                     "two_sided", "specular_reflectance"),
     "metalrough": ("albedo", "albedo_texture", "metallic", "roughness", "masking", "two_sided",
                    "metallic_roughness_texture", "ior", "specular", "specular_color"),
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
              "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior",
-             "metallic", "metallic_roughness_texture", "specular", "specular_color")
+             "metallic", "metallic_roughness_texture", "specular", "specular_color", "specular_transmittance")
 _Unbounded = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 
 
@@ -229,7 +230,12 @@ class Material(StrictModel):
     """Conductor: a measured metal (Au, Ag, Cu, Al, Cr) instead of ``eta`` and ``k``."""
     specular_reflectance: Albedo | ImageTexture | CheckerboardTexture | None = None
     """Conductor: linear RGB factor on the lobe, in [0, 1] (a number: grey), or an image
-    (``fresnel: none`` or ``conductor`` only); None = 1."""
+    (``fresnel: none`` or ``conductor`` only); None = 1. Dielectric, roughdielectric, thindielectric,
+    plastic, roughplastic: Mitsuba 3's factor on the reflected lobe (the coat's), RGB or an image
+    (issue #22, mcpt/shading/specular_weights.py)."""
+    specular_transmittance: Albedo | ImageTexture | CheckerboardTexture | None = None
+    """Dielectric, roughdielectric, thindielectric: Mitsuba 3's factor on the transmitted lobe, RGB
+    in [0, 1] or an image; None = 1 (issue #22). An interior's absorption applies besides."""
     two_sided: bool = True
     """Diffuse, conductor, plastic: whether the back side reflects like the front (false: black)."""
     emission: Radiance | None = None
@@ -259,7 +265,7 @@ class Material(StrictModel):
     """Shade with normals interpolated from the mesh's vertex normals (Assimp generates smooth
     ones when the file has none); the flat triangle normal still decides offsets and leaks."""
 
-    @field_validator("specular_reflectance", mode="before")
+    @field_validator("specular_reflectance", "specular_transmittance", mode="before")
     @classmethod
     def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
         return None if value is None else _colour_or_texture(value, info)

@@ -24,6 +24,9 @@
                                     metal-rough (mcpt/shading/metalrough.py): 3.x metallic,
                                     3.y its metallic-roughness texture id (a float, -1: none),
                                     3.z the perceptual roughness factor
+    spec_texel, +1                  issue #22's specular weights (specular_weights.py): 2 texels
+                                    (reflectance.rgb, texture id), (transmittance.rgb, texture id)
+                                    after texel 4 (if any), only when some material has one
     last 16                         rough plastic (mcpt/shading/roughplastic.py): 3.x the coat's
                                     sampling weight, 3.w Fdr_int, then T at 64 cosines
 
@@ -39,7 +42,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import metalrough, microfacet
+from . import metalrough, microfacet, specular_weights
 
 TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5,
          "roughplastic": 6, "metalrough": 7}
@@ -117,6 +120,9 @@ class MaterialTable:
     emission_texture: np.ndarray = None  # (M,) emission texture id, -1: none (emission_texture.py)
     specular: np.ndarray = None  # (M,) metal-rough: KHR_materials_specular's specularFactor (metalrough.py)
     specular_color: np.ndarray = None  # (M, 3) metal-rough: its specularColorFactor
+    # (M,) None or ((reflectance rgb, texture id), (transmittance rgb, texture id)): issue #22's
+    # specular weights (mcpt/shading/specular_weights.py)
+    spec_weights: tuple = None
 
     def __post_init__(self):
         m = len(self.names)
@@ -128,7 +134,7 @@ class MaterialTable:
                     "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65)),
                     "metallic": np.zeros(m), "metal_rough": np.full(m, -1, np.int64),
                     "emission_texture": np.full(m, -1, np.int64), "specular": np.ones(m),
-                    "specular_color": np.ones((m, 3))}
+                    "specular_color": np.ones((m, 3)), "spec_weights": (None,) * m}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -154,7 +160,8 @@ class MaterialTable:
 
     def textured(self, ids) -> bool:
         return any(self.texture[i] >= 0 or self.normal_map[i] is not None or self.opacity[i] is not None
-                   or self.metal_rough[i] >= 0 or self.emission_texture[i] >= 0 for i in self.used(ids))
+                   or self.metal_rough[i] >= 0 or self.emission_texture[i] >= 0
+                   or specular_weights.textured(self, i) for i in self.used(ids))
 
     def cut_out(self, ids) -> bool:
         return any(self.opacity[i] is not None for i in self.used(ids))
@@ -171,7 +178,8 @@ class MaterialTable:
     def one_sided_used(self, ids) -> bool:
         return any(bool(self.one_sided[i]) and self.types[i] not in TWO_SIDED_TYPES for i in self.used(ids))
 
-    def pack(self, light_pdf_area: np.ndarray, texels: int = 2, emission_textures: bool = False) -> np.ndarray:
+    def pack(self, light_pdf_area: np.ndarray, texels: int = 2, emission_textures: bool = False,
+             spec_texel: int = 0) -> np.ndarray:
         m = len(self.names)
         out = np.zeros((max(m, 1), texels, 4), np.uint32)
         f32 = lambda a: np.asarray(a, np.float32).view(np.uint32)  # noqa: E731
@@ -200,10 +208,14 @@ class MaterialTable:
             fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
             out[:m, 3, 3] = f32(fdr)
             self._pack_rough_plastic(out, texels)
-        if texels in (5, 21):
+        # texel 4 (k, or a metal-rough row's F0, F90) exists when the table, less the 2 specular-weight
+        # texels, has 5 or 21 texels; the specular weights come after it (mcpt/gpu/features.py)
+        fifth = texels - (2 if spec_texel else 0) in (5, 21)
+        if fifth:
             out[:m, 4, :3] = f32(self.k)
         if texels >= 4:  # after k: a metal-rough row's texel 4 holds its F0, F90 (metalrough.py)
-            metalrough.pack(self, out)
+            metalrough.pack(self, out, fifth)
+        specular_weights.pack(self, out, spec_texel)  # issue #22: 2 texels at spec_texel
         return out.reshape(-1, 4)
 
     def _pack_rough_plastic(self, out: np.ndarray, texels: int) -> None:
@@ -212,6 +224,10 @@ class MaterialTable:
         for i, t in enumerate(self.types):
             if t != "roughplastic":
                 continue
-            out[i, 3, :3] = np.float32([1.0 / (1.0 + float(np.mean(self.albedo[i]))), 0.0, 0.0]).view(np.uint32)
+            w = 1.0 / (1.0 + float(np.mean(self.albedo[i])))
+            if self.spec_weights[i] is not None:  # Mitsuba's s_mean / (d_mean + s_mean) (issue #22)
+                spec_mean = float(np.mean(self.spec_weights[i][0][0]))
+                w = specular_weights.coat_weight(float(np.mean(self.albedo[i])), spec_mean)
+            out[i, 3, :3] = np.float32([w, 0.0, 0.0]).view(np.uint32)
             out[i, 3, 3] = np.float32(self.coat[i, 64]).view(np.uint32)
             out[i, texels - 16:texels] = np.asarray(self.coat[i, :64], np.float32).view(np.uint32).reshape(16, 4)

@@ -107,7 +107,7 @@ def uses(table, ids) -> dict[str, bool]:
                                        for i in rows)}
 
 
-def pack(table, out: np.ndarray) -> None:
+def pack(table, out: np.ndarray, fifth: bool) -> None:
     """Texel 3 of each metal-rough row: metallic, the metallic-roughness texture id (as a float, -1:
     none) and the perceptual roughness factor sqrt(alpha) (the texture's green scales it per texel)."""
     for i, t in enumerate(table.types):
@@ -115,6 +115,6 @@ def pack(table, out: np.ndarray) -> None:
             row = [table.metallic[i], float(table.metal_rough[i]), np.sqrt(table.alpha[i])]
             out[i, 3, :3] = np.float32(row).view(np.uint32)
             out[i, 3, 3] = 0
-            if out.shape[1] >= 5:  # texel 4: the dielectric's F0 (rgb), F90 (MCPT_METALROUGH_SPECULAR)
+            if fifth:  # texel 4: the dielectric's F0 (rgb), F90 (MCPT_METALROUGH_SPECULAR)
                 f0, f90 = dielectric_f0_f90(table.ior[i], table.specular[i], table.specular_color[i])
                 out[i, 4] = np.float32([*f0, f90]).view(np.uint32)

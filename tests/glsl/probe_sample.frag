@@ -42,6 +42,8 @@ uniform vec3 u_k;
 uniform int u_front;
 uniform vec3 u_mr_f0;   // metal-rough: the dielectric's F0, F90 (KHR_materials_ior / _specular)
 uniform float u_mr_f90;
+uniform vec3 u_spec_r;  // issue #22: specular_reflectance / specular_transmittance (default 1)
+uniform vec3 u_spec_t;
 layout(location = 0) out uvec4 o_out;
 
 Material probe_material() {
@@ -60,6 +62,9 @@ Material probe_material() {
 #endif
 #if MCPT_MAT_ROUGH_PLASTIC
     m.base = 0;     // a rough plastic's table: texels of the bound material buffer
+#endif
+#if MCPT_SPECULAR_WEIGHTS
+    m.spec_r = u_spec_r; m.spec_t = u_spec_t; m.spec_r_tex = -1; m.spec_t_tex = -1;
 #endif
     return m;
 }

@@ -5,7 +5,8 @@ separable Smith masking term), ``dielectric``, ``roughdielectric`` (likewise), `
 ``plastic``, ``roughplastic`` (both ``nonlinear`` modes, exactly), ``twosided`` (one BSDF for both
 sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_sided: false``;
 ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
-(diffuse reflectance, plastic diffuse_reflectance) a ``bitmap`` or ``checkerboard`` texture
+(diffuse reflectance, plastic diffuse_reflectance, the glasses' and plastics' ``specular_reflectance``
+and ``specular_transmittance``, issue #22) a ``bitmap`` or ``checkerboard`` texture
 (mcpt/scene/mitsuba/textures.py).
 """
 
@@ -74,19 +75,16 @@ def _albedo(bsdf: Node, props, key, default, ids) -> dict:
     return {"albedo": list(rgb)}
 
 
-def _no(props: dict[str, Node], bsdf: Node, *keys: str) -> None:
-    """Refuse ``keys`` unless given as Mitsuba's own default of 1 (``specular_reflectance`` /
-    ``specular_transmittance``: published scenes spell it out, e.g. veach_mis.xml's plates)."""
+def _weights(bsdf: Node, props: dict[str, Node], ids, *keys: str) -> dict:
+    """Mitsuba's ``specular_reflectance`` / ``specular_transmittance`` factors (issue #22,
+    mcpt/shading/specular_weights.py): a colour in [0, 1] or a nested/referenced texture (a bitmap
+    is sRGB-decoded, as Mitsuba's raw=false); absent keys stay absent (Mitsuba's 1)."""
+    out: dict = {}
     for key in keys:
-        if key in props and not _is_default_one(props[key]):
-            raise props[key].error(f"{bsdf.get('type')} parameter {key} is not supported by mcpt")
-
-
-def _is_default_one(node: Node) -> bool:
-    """A ``specular_*`` value equal to Mitsuba's default 1 (a plain value, not a texture)."""
-    if node.tag not in ("rgb", "float", "spectrum"):
-        return False
-    return all(c == 1.0 for c in V.as_color(node))
+        if key in props or any(c.tag in ("texture", "ref") and c.get("name", "") == key for c in bsdf.children):
+            value = _albedo(bsdf, props, key, 1.0, ids)
+            out[key] = value.get("albedo", value.get("albedo_texture"))
+    return out
 
 
 def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
@@ -160,25 +158,25 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
         if kind == "roughconductor":
             out.update(_rough(bsdf, props))
     elif kind in ("dielectric", "roughdielectric", "thindielectric"):
-        _no(props, bsdf, "specular_reflectance", "specular_transmittance")
+        weights = _weights(bsdf, props, ids, "specular_reflectance", "specular_transmittance")
         ior = _relative_ior(props, bsdf, "bk7")
         if not 1.0 < ior <= 4.0:
             raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the denser medium "
                              "must be inside; 1 is no interface)")
         if kind != "roughdielectric":
-            return {"type": kind, "ior": ior}
+            return {"type": kind, "ior": ior, **weights}
         rough = _rough(bsdf, props)
         if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
             raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least "
                                                      f"rough-glass alpha {ROUGH_GLASS_MIN_ALPHA:g} (use a dielectric)")
-        return {"type": "roughdielectric", "ior": ior, **rough}
+        return {"type": "roughdielectric", "ior": ior, **rough, **weights}
     elif kind == "plastic":
-        _no(props, bsdf, "specular_reflectance")
         ior = _relative_ior(props, bsdf, "polypropylene")
         out = {"type": "plastic", "ior": ior, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids),
+               **_weights(bsdf, props, ids, "specular_reflectance"),
                "nonlinear": V.as_bool(props["nonlinear"]) if "nonlinear" in props else False}
     elif kind == "roughplastic":
-        _no(props, bsdf, "specular_reflectance")
+        weights = _weights(bsdf, props, ids, "specular_reflectance")
         ior = _relative_ior(props, bsdf, "polypropylene")
         if not 1.0 < ior <= 4.0:
             raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the coat must be denser)")
@@ -187,7 +185,7 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
             raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least alpha "
                                                      f"{ROUGH_GLASS_MIN_ALPHA:g} (use a plastic)")
         out = {"type": "roughplastic", "ior": ior, **rough, **_albedo(bsdf, props, "diffuse_reflectance", 0.5, ids),
-               "nonlinear": V.as_bool(props["nonlinear"]) if "nonlinear" in props else False}
+               "nonlinear": V.as_bool(props["nonlinear"]) if "nonlinear" in props else False, **weights}
     else:
         raise bsdf.error(f"not supported by mcpt (supported: {', '.join(SUPPORTED)})")
     out["two_sided"] = two_sided
