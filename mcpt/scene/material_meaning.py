@@ -83,6 +83,7 @@ class MaterialRow:
     metallic: float = 0.0
     metal_rough: object = None  # metalrough: the metallic-roughness TextureRef, then its texture id (_add)
     emission_texture: object = None  # the texture reference, then its id (_add); issue #22
+    roughness_texture: object = None  # issue #22: the roughness TextureRef, then its id (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -138,12 +139,14 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
         rgb = ym.specular_reflectance
         albedo = tuple(rgb) if isinstance(rgb, tuple) else (1.0, 1.0, 1.0)
     emission = tuple(ym.emission) if ym.emission is not None else ke
-    alpha, metallic = ym.roughness, 0.0
+    alpha, metallic = ym.alpha, 0.0
     if ym.type == "metalrough":  # glTF's perceptual roughness; glTF's defaults (1, 1) when absent
         alpha = metalrough.alpha(ym.roughness if "roughness" in ym.model_fields_set else 1.0)
         metallic = ym.metallic if ym.metallic is not None else 1.0
     mr = ym.metallic_roughness_texture
     mr = TextureRef(mr.file, mr.wrap, mr.filter, linear=True, uv=mr.uv) if mr is not None else None
+    rt = ym.roughness_texture  # issue #22: read linearly unless the scene says srgb (Mitsuba's raw=false)
+    rt = TextureRef(rt.file, rt.wrap, rt.filter, linear=rt.encoding == "linear", uv=rt.uv) if rt is not None else None
     if ym.emission_texture is not None:  # issue #22: emission scales the image (default 1)
         emission = tuple(ym.emission) if ym.emission is not None else (1.0, 1.0, 1.0)
     return MaterialRow(name, ym.type, albedo, emission, alpha=alpha, ior=ym.ior, metallic=metallic, metal_rough=mr,
@@ -151,7 +154,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
                        one_sided=not ym.two_sided, normal_map=ym.normal_map or ym.bump_map,
                        opacity=(ym.opacity, ym.opacity_cutoff) if ym.opacity is not None else None,
                        distribution=ym.distribution, masking=ym.masking, nonlinear=ym.nonlinear_mode,
-                       emission_texture=ym.emission_texture, **conductor_columns(ym))
+                       emission_texture=ym.emission_texture, roughness_texture=rt, **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -183,7 +186,8 @@ class MaterialResolver:
         ym = self.yaml_material(spec)
         if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity
                                                                          or ym.metallic_roughness_texture
-                                                                         or ym.emission_texture)):
+                                                                         or ym.emission_texture
+                                                                         or ym.roughness_texture)):
             return True
         if any(m.ke_map is not None for m in file_materials) and (ym is None or ym.emission is None):
             return True
@@ -250,7 +254,9 @@ class MaterialResolver:
                              metal_rough=np.asarray([-1 if r.metal_rough is None else r.metal_rough for r in rows],
                                                     np.int64).reshape(-1),
                              emission_texture=np.asarray([-1 if r.emission_texture is None else r.emission_texture
-                                                          for r in rows], np.int64).reshape(-1))
+                                                          for r in rows], np.int64).reshape(-1),
+                             roughness_texture=np.asarray([-1 if r.roughness_texture is None else r.roughness_texture
+                                                           for r in rows], np.int64).reshape(-1))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -274,6 +280,9 @@ class MaterialResolver:
             if row.metal_rough is not None:
                 where = self.scene.where("materials", row.name, "metallic_roughness_texture")
                 row = replace(row, metal_rough=self._texture_id(row.metal_rough, where))
+            if row.roughness_texture is not None:  # issue #22
+                where = self.scene.where("materials", row.name, "roughness_texture")
+                row = replace(row, roughness_texture=self._texture_id(row.roughness_texture, where))
             self.rows.append(row)
         return self._index[key]
 
