@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from mcpt.bench.stats import z_test
-from mcpt.scene import SceneError, parse_scene
+from mcpt.scene import SceneError, load_scene, parse_scene
 from mcpt.shading.materials import MIN_ALPHA
 from mcpt.shading.roughness_texture import SHIFT
 from mcpt.shapes.world import load_world
@@ -162,3 +162,48 @@ def test_bad_input_is_one_located_line(tmp_path):
     msg = _err(tmp_path, _conductor(f"roughness: 0, roughness_texture: {tex}"))
     assert "roughness 0 with a roughness_texture" in msg
     assert "encoding" in _err(tmp_path, _conductor(f"roughness_texture: {{file: {tex}, encoding: gamma}}"))
+
+
+def _xml(tmp_path, bsdf: str):
+    from .test_mitsuba import write_xml
+
+    return write_xml(tmp_path, f'<shape type="rectangle">{bsdf}</shape>')
+
+
+def test_mitsuba_alpha_bitmap_is_an_srgb_roughness_texture(tmp_path):
+    """Mitsuba 3's bitmap without raw sRGB-decodes every PNG, grey ones and alpha included (its
+    Bitmap marks PNGs sRGB; Mitsuba 3.9.1 evaluates a grey 128 PNG to 0.2159 = srgb_to_linear(128));
+    raw=true reads it linearly. Either becomes roughness_texture with roughness absent (1)."""
+    from mcpt.scene.mitsuba import scene_data
+
+    grey = _png(tmp_path, "a.png", np.full((2, 2), 128))
+    for raw, encoding in (("", "srgb"), ('<boolean name="raw" value="true"/>', "linear")):
+        for kind in ("roughconductor", "roughdielectric"):
+            path = _xml(tmp_path, f'<bsdf type="{kind}"><string name="distribution" value="ggx"/><texture '
+                                  f'type="bitmap" name="alpha"><string name="filename" value="{grey}"/>{raw}'
+                                  '</texture></bsdf>')
+            mat = next(iter(scene_data(path)[0]["materials"].values()))
+            assert mat["roughness_texture"]["encoding"] == encoding and "roughness" not in mat, mat
+            assert mat["masking"] == "separable" and mat["distribution"] == "ggx"
+    world = load_world(load_scene(path))
+    i = world.materials.types.index("roughdielectric")
+    assert world.materials.alpha[i] == 1.0 and world.materials.roughness_texture[i] >= 0
+
+
+@pytest.mark.parametrize("bsdf,pattern", [
+    ('<bsdf type="roughplastic"><texture type="bitmap" name="alpha"><string name="filename" value="{g}"/>'
+     '</texture></bsdf>', "roughplastic's alpha is a number"),
+    ('<bsdf type="roughconductor"><texture type="bitmap" name="alpha_u"><string name="filename" value="{g}"/>'
+     '</texture><float name="alpha_v" value="0.1"/></bsdf>', "anisotropic roughness"),
+    ('<bsdf type="roughconductor"><texture type="checkerboard" name="alpha"/></bsdf>', "must be a bitmap"),
+    ('<bsdf type="roughconductor"><texture type="bitmap" name="alpha"><string name="filename" value="{c}"/>'
+     '</texture></bsdf>', "colour image as alpha"),
+])
+def test_mitsuba_alpha_texture_refusals(tmp_path, bsdf, pattern):
+    grey = _png(tmp_path, "a.png", np.full((2, 2), 128))
+    colour = _png(tmp_path, "c.png", np.dstack([np.full((2, 2), v) for v in (10, 20, 30)]))
+    path = _xml(tmp_path, bsdf.format(g=grey, c=colour))
+    with pytest.raises(SceneError) as err:
+        load_world(load_scene(path))
+    msg = str(err.value)
+    assert "\n" not in msg and "s.xml:" in msg and pattern in msg, msg
