@@ -81,6 +81,19 @@ def test_white_texture_is_the_untextured_material(gl, tmp_path, kind):
     np.testing.assert_array_equal(a.image, b.image)
 
 
+@pytest.mark.parametrize("kind", list(CASES))
+def test_black_texture_is_the_least_alpha(gl, tmp_path, kind):
+    """A black texel gives alpha 0, floored at the least alpha the material takes (MIN_ALPHA): the
+    render is the untextured material at roughness MIN_ALPHA, pixel for pixel."""
+    make, lamp = CASES[kind]
+    black = _png(tmp_path, "black.png", np.zeros((4, 4)))
+    a, _ = render(gl, _scene(tmp_path, make(f"roughness: 0.5, roughness_texture: {black}"), lamp), 4, 5)
+    b, _ = render(gl, _scene(tmp_path, make(f"roughness: {MIN_ALPHA!r}"), lamp), 4, 5)
+    print(kind, a.image.mean())
+    assert a.image.mean() > 1e-3 and a.dropped_samples == b.dropped_samples == 0
+    np.testing.assert_array_equal(a.image, b.image)
+
+
 @pytest.mark.parametrize("encoding", ["linear", "srgb"])
 def test_grey_texture_is_roughness_times_its_value(gl, tmp_path, encoding):
     """A constant grey 128 (bilinear, the default) scales roughness by 128/255 read linearly, or by
