@@ -20,6 +20,9 @@
 #if MCPT_AOV
 #include "aov.glsl"
 #endif
+#if MCPT_ROUGHNESS_TEXTURES
+#include "roughness_texture.glsl"
+#endif
 
 uniform ivec4 u_tile;    // x0, y0 (rows from the top), width, height of the tile being rendered
 #if MCPT_CLAMP
@@ -102,6 +105,9 @@ bool path_step(inout Path P) {
 #endif
 #if MCPT_MAT_METALROUGH
     metalrough_at(m, h);                            // texture.glsl: glTF's metallicRoughnessTexture
+#endif
+#if MCPT_ROUGHNESS_TEXTURES
+    roughness_at(m, h);                             // roughness_texture.glsl (issue #22), before NEE
 #endif
     material_side(m, cos_o < 0.0);                  // materials.glsl
     if (material_black(m)) return false;  // pure emitter

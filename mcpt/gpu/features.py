@@ -25,7 +25,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, fields
 
 from ..scene.animation import camera_moves
-from ..shading import emission_texture, metalrough, microfacet, specular_weights, thindielectric
+from ..shading import emission_texture, metalrough, microfacet, roughness_texture, specular_weights, thindielectric
 from ..shading.camera import camera_uses
 from ..shading.lights import light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
@@ -101,6 +101,7 @@ class Uses:
     emission_textures: bool = False  # issue #22: some emission is an image (emission_texture.py)
     float_textures: bool = False    # issue #22: some texture is EXR / HDR / 16-bit (float_texture.py)
     specular_weights: bool = False  # issue #22: some glass / plastic has a specular factor != 1 (2 texels)
+    roughness_textures: bool = False  # issue #22: some alpha is read per hit (roughness_texture.py)
     smooth_normals: bool = False    # some material shades with vertex normals: normal buffer
     fresnel_complex: bool = False   # some conductor has fresnel: conductor (eta, k): 5th texel
     one_sided: bool = False         # some material has two_sided: false (black back side)
@@ -127,7 +128,7 @@ class Uses:
             fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,
             separable_masking=True, rough_dielectric=True, thin_dielectric=True, rough_plastic=True, metalrough=True,
             metalrough_specular=True, medium=True, interior_media=True, emission_textures=True,
-            float_textures=True, specular_weights=True)
+            float_textures=True, specular_weights=True, roughness_textures=True)
 
     @property
     def delta(self) -> bool:
@@ -312,6 +313,7 @@ class Features:
             "MCPT_TEXTURES": b(u.textures),
             "MCPT_EMISSION_TEXTURES": b(u.textures and u.emission_textures),
             "MCPT_FLOAT_TEXTURES": b(u.textures and u.float_textures),
+            "MCPT_ROUGHNESS_TEXTURES": b(u.textures and u.roughness_textures),
             "MCPT_SMOOTH_NORMALS": b(u.smooth_normals),
             "MCPT_FRESNEL_COMPLEX": b(u.conductor and u.fresnel_complex),
             "MCPT_ONE_SIDED": b(u.one_sided),
@@ -395,7 +397,7 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         opacity=mt.cut_out(ids), **medium_uses(world), **{"bvh_dense": world.bvh.dense, **flags})
     f = f.replace(**microfacet.uses(mt, ids), **thindielectric.uses(mt, ids), **metalrough.uses(mt, ids),
                   **camera_uses(world.scene.camera), **emission_texture.uses(mt, ids),
-                  **specular_weights.uses(mt, ids))
+                  **specular_weights.uses(mt, ids), **roughness_texture.uses(mt, ids))
     first = 0
     if f.uses.bvh and not f.uses.bvh_dense:
         first, start = world.bvh.large_tail()

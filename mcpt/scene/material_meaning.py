@@ -86,6 +86,7 @@ class MaterialRow:
     specular: float = 1.0      # metalrough: KHR_materials_specular's factor and colour (issue #21 item 5)
     specular_color: RGB = (1.0, 1.0, 1.0)
     spec_weights: object = None  # issue #22: (reflectance, transmittance), RGB or texture, then (rgb, id) (_add)
+    roughness_texture: object = None  # issue #22: the roughness TextureRef, then its id (_add)
 
 
 def absorption_sigma(ym: Material) -> RGB:
@@ -141,13 +142,15 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
         rgb = ym.specular_reflectance
         albedo = tuple(rgb) if isinstance(rgb, tuple) else (1.0, 1.0, 1.0)
     emission = tuple(ym.emission) if ym.emission is not None else ke
-    alpha, metallic = ym.roughness, 0.0
+    alpha, metallic = ym.alpha, 0.0
     if ym.type == "metalrough":  # glTF's perceptual roughness; glTF's defaults (1, 1) when absent
         alpha = metalrough.alpha(ym.roughness if "roughness" in ym.model_fields_set else 1.0)
         metallic = ym.metallic if ym.metallic is not None else 1.0
     mr = ym.metallic_roughness_texture
     if mr is not None:  # linear unless the scene says encoding: srgb (issue #22)
         mr = TextureRef(mr.file, mr.wrap, mr.filter, linear=mr.encoding != "srgb", uv=mr.uv)
+    rt = ym.roughness_texture  # issue #22: read linearly unless the scene says srgb (Mitsuba's raw=false)
+    rt = TextureRef(rt.file, rt.wrap, rt.filter, linear=rt.encoding == "linear", uv=rt.uv) if rt is not None else None
     if ym.emission_texture is not None:  # issue #22: emission scales the image (default 1)
         emission = tuple(ym.emission) if ym.emission is not None else (1.0, 1.0, 1.0)
     return MaterialRow(name, ym.type, albedo, emission, alpha=alpha, ior=ym.ior, metallic=metallic, metal_rough=mr,
@@ -157,7 +160,7 @@ def scene_row(name: str, ym: Material, kd: RGB, ke: RGB) -> MaterialRow:
                        distribution=ym.distribution, masking=ym.masking, nonlinear=ym.nonlinear_mode,
                        emission_texture=ym.emission_texture, specular=ym.specular,
                        specular_color=tuple(ym.specular_color), spec_weights=specular_weights.column(ym),
-                       **conductor_columns(ym))
+                       roughness_texture=rt, **conductor_columns(ym))
 
 
 class MaterialResolver:
@@ -189,7 +192,8 @@ class MaterialResolver:
         ym = self.yaml_material(spec)
         if self._yaml_texture(spec) is not None or (ym is not None and (ym.normal_map or ym.bump_map or ym.opacity
                                                                          or ym.metallic_roughness_texture
-                                                                         or ym.emission_texture)):
+                                                                         or ym.emission_texture
+                                                                         or ym.roughness_texture)):
             return True
         if ym is not None and specular_weights.column(ym) is not None \
                 and any(not isinstance(c, tuple) for c in specular_weights.column(ym)):  # issue #22
@@ -261,7 +265,9 @@ class MaterialResolver:
                              emission_texture=np.asarray([-1 if r.emission_texture is None else r.emission_texture
                                                           for r in rows], np.int64).reshape(-1),
                              specular=col("specular", np.float64), specular_color=rgb("specular_color"),
-                             spec_weights=tuple(r.spec_weights for r in rows))
+                             spec_weights=tuple(r.spec_weights for r in rows),
+                             roughness_texture=np.asarray([-1 if r.roughness_texture is None else r.roughness_texture
+                                                           for r in rows], np.int64).reshape(-1))
 
     def _add(self, key, row: MaterialRow, tex, tex_where: str) -> int:
         """The id of the row ``key`` names, adding ``row`` (and its texture) the first time."""
@@ -288,6 +294,9 @@ class MaterialResolver:
                 self._check_metal_rough(row.metal_rough, where)
             if row.spec_weights is not None:  # issue #22
                 row = replace(row, spec_weights=self._spec_weights(row.name, row.spec_weights))
+            if row.roughness_texture is not None:  # issue #22
+                where = self.scene.where("materials", row.name, "roughness_texture")
+                row = replace(row, roughness_texture=self._texture_id(row.roughness_texture, where))
             self.rows.append(row)
         return self._index[key]
 

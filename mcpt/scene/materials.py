@@ -62,6 +62,16 @@ class ImageTexture(StrictModel):
         return texture_file(value, info)
 
 
+class RoughnessTexture(ImageTexture):
+    """A roughness texture (issue #22, mcpt/shading/roughness_texture.py): its first channel (a grey
+    image's grey) times the material's ``roughness`` is the microfacet alpha at each hit, floored at
+    the least alpha the material takes (0.001) and at most 1."""
+
+    encoding: Literal["linear", "srgb"] = "linear"
+    """``linear``: texel c / 255 (a roughness map is data, not colour); ``srgb``: sRGB-decoded, what
+    Mitsuba 3's bitmap does without ``raw=true`` (the Mitsuba reader sets it)."""
+
+
 def _texture_shorthand(value: Any) -> Any:
     """``albedo_texture: spot.png`` is short for ``albedo_texture: {file: spot.png}``."""
     return {"file": value} if isinstance(value, (str, Path)) else value
@@ -120,11 +130,11 @@ class Absorption(StrictModel):
 MATERIAL_KEYS = {
     "diffuse": ("albedo", "albedo_texture", "two_sided"),
     "conductor": ("albedo", "albedo_texture", "roughness", "fresnel", "eta", "k", "metal",
-                  "specular_reflectance", "two_sided", "distribution", "masking"),
+                  "specular_reflectance", "two_sided", "distribution", "masking", "roughness_texture"),
     "dielectric": ("ior", "absorption", "interior", "specular_reflectance", "specular_transmittance"),
     "plastic": ("albedo", "albedo_texture", "ior", "nonlinear", "two_sided", "specular_reflectance"),
     "roughdielectric": ("ior", "roughness", "distribution", "masking", "specular_reflectance",
-                        "specular_transmittance"),
+                        "specular_transmittance", "roughness_texture"),
     "thindielectric": ("ior", "specular_reflectance", "specular_transmittance"),
     "roughplastic": ("albedo", "albedo_texture", "ior", "roughness", "distribution", "masking", "nonlinear",
                      "two_sided", "specular_reflectance"),
@@ -133,7 +143,8 @@ MATERIAL_KEYS = {
 }
 _OPTIONAL = ("albedo", "albedo_texture", "roughness", "ior", "absorption", "fresnel", "eta", "k",
              "metal", "specular_reflectance", "two_sided", "distribution", "masking", "nonlinear", "interior",
-             "metallic", "metallic_roughness_texture", "specular", "specular_color", "specular_transmittance")
+             "metallic", "metallic_roughness_texture", "specular", "specular_color", "specular_transmittance",
+             "roughness_texture")
 _Unbounded = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
 
 
@@ -206,6 +217,9 @@ class Material(StrictModel):
     specular_color: Annotated[tuple[_Unbounded, _Unbounded, _Unbounded], fixed_list(3)] = (1.0, 1.0, 1.0)
     """Metalrough: KHR_materials_specular's specularColorFactor (linear RGB, >= 0; F0 = min(f0(ior)
     x this, 1) x specular)."""
+    roughness_texture: RoughnessTexture | None = None
+    """Conductor, roughdielectric (issue #22): a texture whose first channel times ``roughness`` (1 when
+    absent) is alpha per hit (a file name or ``{file, uv, wrap, filter, encoding}``, read linearly)."""
     distribution: Literal["ggx", "beckmann"] = "ggx"
     """Rough conductor or dielectric: the microfacet distribution (mcpt/shading/microfacet.py)."""
     masking: Literal["height_correlated", "separable"] = "height_correlated"
@@ -275,9 +289,18 @@ class Material(StrictModel):
     def _albedo_texture(cls, value: Any, info: ValidationInfo) -> Any:
         return _texture(value, info)
 
+    @field_validator("roughness_texture", mode="before")
+    @classmethod
+    def _roughness_texture(cls, value: Any) -> Any:
+        return _texture_shorthand(value)
+
     @model_validator(mode="after")
     def _check_keys(self) -> Material:
         allowed = MATERIAL_KEYS[self.type]
+        if self.type == "roughplastic" and self.roughness_texture is not None:  # issue #22
+            raise FieldError(("roughness_texture",), "a roughplastic takes no roughness_texture: its coat's "
+                                                     "transmittance tables are computed for one alpha (Mitsuba 3's "
+                                                     "roughplastic alpha is a number too); use a roughness")
         for key in _OPTIONAL:
             if key in self.model_fields_set and key not in allowed:
                 users = [t for t, keys in MATERIAL_KEYS.items() if key in keys]
@@ -306,7 +329,11 @@ class Material(StrictModel):
                                        "surface would be invisible); a dielectric needs ior > 1 "
                                        "(or an interior medium, whose boundary it then is)")
         self._check_ior()
-        if self.type in ("roughdielectric", "roughplastic") and self.roughness < ROUGH_GLASS_MIN_ALPHA:
+        if self.roughness_texture is not None and self.alpha < ROUGH_GLASS_MIN_ALPHA:  # issue #22
+            raise FieldError(("roughness",), f"roughness {self.roughness:g} with a roughness_texture: the texture "
+                                             f"scales roughness, so every texel would be smooth (give roughness "
+                                             f"in [{ROUGH_GLASS_MIN_ALPHA:g}, 1], or none: 1)")
+        if self.type in ("roughdielectric", "roughplastic") and self.alpha < ROUGH_GLASS_MIN_ALPHA:
             raise FieldError(("roughness",), f"a {self.type} needs roughness (alpha) in "
                                              f"[{ROUGH_GLASS_MIN_ALPHA:g}, 1], got {self.roughness:g} "
                                              f"(smooth glass is type: dielectric)")
@@ -330,6 +357,14 @@ class Material(StrictModel):
             raise FieldError(("ior",), f"ior {x:g} < 1 is not supported: ior is the relative index inside / "
                                        f"outside (the outside is air) and the denser medium must be inside; flip "
                                        f"the normals (swap the sides) and give 1 / ior = {1.0 / x:.4g}")
+
+    @property
+    def alpha(self) -> float:
+        """The roughness the table holds: ``roughness``, or 1 with a roughness_texture and no roughness
+        (the texture is then alpha itself; issue #22)."""
+        if self.roughness_texture is not None and "roughness" not in self.model_fields_set:
+            return 1.0
+        return self.roughness
 
     @property
     def nonlinear_mode(self) -> bool:

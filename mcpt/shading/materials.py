@@ -13,7 +13,9 @@
                                     plastic), albedo texture id (0xffffffff: none), flags:
                                     bit 0 smooth normals, bits 1-2 conductor Fresnel mode
                                     (0 Schlick, 1 none, 2 complex), bit 3 one-sided, bits 4-5
-                                    Beckmann, separable masking (mcpt/shading/microfacet.py)
+                                    Beckmann, separable masking (mcpt/shading/microfacet.py),
+                                    bit 6 nonlinear, bits 16-31 the roughness texture id + 1
+                                    (0: none; mcpt/shading/roughness_texture.py)
     3: sigma_a.rgb, fdr_int         absorption coefficient per unit length (dielectric);
                                     conductor: Schlick's lobe scale (specular_reflectance), or
                                     eta (complex Fresnel); the coat's internal diffuse
@@ -42,7 +44,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import metalrough, microfacet, specular_weights
+from . import metalrough, microfacet, roughness_texture, specular_weights
 
 TYPES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3, "roughdielectric": 4, "thindielectric": 5,
          "roughplastic": 6, "metalrough": 7}
@@ -123,6 +125,7 @@ class MaterialTable:
     # (M,) None or ((reflectance rgb, texture id), (transmittance rgb, texture id)): issue #22's
     # specular weights (mcpt/shading/specular_weights.py)
     spec_weights: tuple = None
+    roughness_texture: np.ndarray = None  # (M,) roughness texture id, -1: none (roughness_texture.py)
 
     def __post_init__(self):
         m = len(self.names)
@@ -134,7 +137,8 @@ class MaterialTable:
                     "nonlinear": np.zeros(m, bool), "coat": np.zeros((m, 65)),
                     "metallic": np.zeros(m), "metal_rough": np.full(m, -1, np.int64),
                     "emission_texture": np.full(m, -1, np.int64), "specular": np.ones(m),
-                    "specular_color": np.ones((m, 3)), "spec_weights": (None,) * m}
+                    "specular_color": np.ones((m, 3)), "spec_weights": (None,) * m,
+                    "roughness_texture": np.full(m, -1, np.int64)}
         for k, v in defaults.items():
             if getattr(self, k) is None:
                 object.__setattr__(self, k, v)
@@ -160,7 +164,7 @@ class MaterialTable:
 
     def textured(self, ids) -> bool:
         return any(self.texture[i] >= 0 or self.normal_map[i] is not None or self.opacity[i] is not None
-                   or self.metal_rough[i] >= 0 or self.emission_texture[i] >= 0
+                   or self.metal_rough[i] >= 0 or self.emission_texture[i] >= 0 or self.roughness_texture[i] >= 0
                    or specular_weights.textured(self, i) for i in self.used(ids))
 
     def cut_out(self, ids) -> bool:
@@ -200,7 +204,8 @@ class MaterialTable:
             mf = [microfacet.flags(d, g) for d, g in zip(self.distribution, self.masking)]
             out[:m, 2, 3] = (np.where(self.smooth, FLAG_SMOOTH_NORMALS, 0) | (mode << FRESNEL_SHIFT)
                              | np.where(one, FLAG_ONE_SIDED, 0) | np.asarray(mf, np.int64)
-                             | np.where(self.nonlinear, FLAG_NONLINEAR, 0)).astype(np.uint32)
+                             | np.where(self.nonlinear, FLAG_NONLINEAR, 0)
+                             | roughness_texture.flag_bits(self)).astype(np.uint32)
             # Texel 3 rgb per type: sigma_a (dielectric), Schlick's lobe scale or eta (conductor).
             third = np.where(conductor[:, None], np.where((mode == FRESNEL["conductor"])[:, None],
                                                           self.eta, self.spec), self.sigma_a)

@@ -7,7 +7,8 @@ sides). A bare Mitsuba BSDF is ONE-sided (its back is black): it becomes ``two_s
 ``twosided`` makes it ``two_sided: true``. Colours may be ``<rgb>``, ``<spectrum>``, a number, or
 (diffuse reflectance, plastic diffuse_reflectance, the glasses' and plastics' ``specular_reflectance``
 and ``specular_transmittance``, issue #22) a ``bitmap`` or ``checkerboard`` texture
-(mcpt/scene/mitsuba/textures.py).
+(mcpt/scene/mitsuba/textures.py). A roughconductor's or roughdielectric's ``alpha`` may be a grey
+``bitmap`` (issue #22: ``roughness_texture``, sRGB-decoded as Mitsuba does unless ``raw=true``).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import logging
 from ...shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from . import values as V
 from .conductors import MITSUBA_CONDUCTORS
-from .textures import bump_map, mask, normal_map, texture
+from .textures import alpha_texture, bump_map, mask, normal_map, texture
 from .xmltree import Node, deref
 
 log = logging.getLogger("mcpt")
@@ -111,10 +112,12 @@ def _conductor(bsdf: Node, props: dict[str, Node]) -> dict:
     return out
 
 
-def _rough(bsdf: Node, props: dict[str, Node]) -> dict:
-    """The microfacet keys of a rough BSDF: alpha, Mitsuba's distribution (Beckmann by default) and
+def _rough(bsdf: Node, props: dict[str, Node], ids: dict[str, Node]) -> dict:
+    """The microfacet keys of a rough BSDF: alpha (a number, or a bitmap: ``roughness_texture``,
+    mcpt/scene/mitsuba/textures.py alpha_texture), Mitsuba's distribution (Beckmann by default) and
     its separable masking term G1(wi) G1(wo) (include/mitsuba/render/microfacet.h). ``sample_visible``
     changes only how directions are drawn (the variance), not the image: accepted and ignored."""
+    textured = alpha_texture(bsdf, ids, props)
     dist = V.as_string(props["distribution"]) if "distribution" in props else "beckmann"
     if dist not in ("ggx", "beckmann"):
         raise props["distribution"].error(f"distribution {dist!r}: expected ggx or beckmann")
@@ -129,6 +132,8 @@ def _rough(bsdf: Node, props: dict[str, Node]) -> dict:
         alpha = V.as_float(props["alpha"]) if "alpha" in props else 0.1
     if not 0.0 <= alpha <= 1.0:
         raise (props.get("alpha") or bsdf).error(f"alpha {alpha} out of [0, 1]")
+    if textured:  # issue #22: the texture is alpha (roughness absent: 1)
+        return {**textured, "distribution": dist, "masking": "separable"}
     return {"roughness": alpha, "distribution": dist, "masking": "separable"}
 
 
@@ -156,7 +161,7 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
     elif kind in ("conductor", "roughconductor"):
         out = _conductor(bsdf, props)
         if kind == "roughconductor":
-            out.update(_rough(bsdf, props))
+            out.update(_rough(bsdf, props, ids))
     elif kind in ("dielectric", "roughdielectric", "thindielectric"):
         weights = _weights(bsdf, props, ids, "specular_reflectance", "specular_transmittance")
         ior = _relative_ior(props, bsdf, "bk7")
@@ -165,8 +170,8 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
                              "must be inside; 1 is no interface)")
         if kind != "roughdielectric":
             return {"type": kind, "ior": ior, **weights}
-        rough = _rough(bsdf, props)
-        if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
+        rough = _rough(bsdf, props, ids)
+        if rough.get("roughness", 1.0) < ROUGH_GLASS_MIN_ALPHA:
             raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least "
                                                      f"rough-glass alpha {ROUGH_GLASS_MIN_ALPHA:g} (use a dielectric)")
         return {"type": "roughdielectric", "ior": ior, **rough, **weights}
@@ -180,7 +185,7 @@ def material(bsdf: Node, ids: dict[str, Node], two_sided: bool = False) -> dict:
         ior = _relative_ior(props, bsdf, "polypropylene")
         if not 1.0 < ior <= 4.0:
             raise bsdf.error(f"relative index {ior:.4g} outside mcpt's range (1, 4] (the coat must be denser)")
-        rough = _rough(bsdf, props)
+        rough = _rough(bsdf, props, ids)
         if rough["roughness"] < ROUGH_GLASS_MIN_ALPHA:
             raise (props.get("alpha") or bsdf).error(f"alpha {rough['roughness']:g} below mcpt's least alpha "
                                                      f"{ROUGH_GLASS_MIN_ALPHA:g} (use a plastic)")

@@ -178,3 +178,44 @@ def emitter_texture(emitter: Node, ids: dict[str, Node]) -> dict | None:
                 raise child.error(f"expected a texture, got <{target.tag}>")
             return texture(target)
     return None
+
+
+def alpha_texture(bsdf: Node, ids: dict[str, Node], props: dict[str, Node]) -> dict:
+    """A rough BSDF's ``<texture name="alpha">`` (issue #22) as ``roughness_texture`` (roughness then
+    absent: 1, the texture is alpha), or nothing. Mitsuba 3's roughconductor and roughdielectric read
+    alpha with the texture's eval_1: a bitmap sRGB-decoded unless ``raw=true`` (Mitsuba's Bitmap marks
+    every PNG sRGB, grey and 16-bit ones too; verified: a grey 128 PNG evaluates to 0.2159), so
+    ``encoding: srgb`` without raw. eval_1 of a colour image is its luminance, mcpt reads the first
+    channel: a colour image is refused. roughplastic's alpha is a number in Mitsuba 3 too."""
+    maps = [c for c in bsdf.children if c.tag in ("texture", "ref") and c.get("name") in ("alpha", "alpha_u",
+                                                                                            "alpha_v")]
+    if not maps:
+        return {}
+    child = maps[0]
+    if child.get("name") != "alpha":
+        raise child.error("an alpha_u / alpha_v texture (anisotropic roughness) is not supported by mcpt")
+    if bsdf.get("type") == "roughplastic":
+        raise child.error("a roughplastic's alpha is a number (Mitsuba 3 reads it as one; its coat tables "
+                          "are computed for one alpha)")
+    if "alpha" in props:
+        raise child.error(f"alpha given twice (first on line {props['alpha'].line})")
+    tex = deref(child, ids)
+    if tex.tag != "texture" or tex.get("type") != "bitmap":
+        raise child.error("an alpha texture must be a bitmap in mcpt")
+    tprops = V.properties(tex)
+    raw = "raw" in tprops and V.as_bool(tprops["raw"])
+    data = texture(tex, raw=True)
+    _refuse_colour(tex, data["file"])
+    return {"roughness_texture": {**data, "encoding": "linear" if raw else "srgb"}}
+
+
+def _refuse_colour(tex: Node, file: str) -> None:
+    """One located line for a colour (not grey) image as alpha (a missing one: the loader says so)."""
+    import cv2
+
+    img = cv2.imread(file, cv2.IMREAD_UNCHANGED)
+    if img is None or img.ndim == 2 or img.shape[2] < 3:
+        return
+    if not (np.array_equal(img[..., 0], img[..., 1]) and np.array_equal(img[..., 1], img[..., 2])):
+        raise tex.error("a colour image as alpha: Mitsuba reads its luminance, mcpt its first channel "
+                        "(give a grey image)")
