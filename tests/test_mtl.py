@@ -156,3 +156,16 @@ def test_load_world_reads_each_obj_and_mtl_once(tmp_path, monkeypatch):
     # What was read once still means what it did: map_Kd (textured), Ke (emission).
     i = world.materials.names.index("painted")
     assert world.materials.texture[i] >= 0 and tuple(world.materials.emission[i]) == (0.5, 0.5, 0.5)
+
+
+def test_mtl_maps_mcpt_does_not_read_are_said_once(tmp_path, caplog):
+    """Issue #22: an MTL's bump / normal / PBR / specular maps are not read; one warning per MTL
+    file names them and their materials (they used to be dropped without a word)."""
+    extra = "map_Bump -bm 0.5 tex/blocks.png\nnorm tex/blocks.png\nmap_Pr tex/blocks.png\nmap_Ks tex/blocks.png\n"
+    quad = _textured_quad(tmp_path / "m", mtl_extra=extra)
+    with caplog.at_level(logging.WARNING, logger="mcpt"):
+        load_world(_scene(quad, tmp_path=tmp_path))
+    said = [r.getMessage() for r in caplog.records if "ignored by mcpt" in r.getMessage()]
+    assert len(said) == 1, said
+    assert "quad.mtl" in said[0] and all(k in said[0] for k in ("map_bump", "norm", "map_pr", "map_ks"))
+    assert "painted" in said[0] and "\n" not in said[0]

@@ -212,6 +212,10 @@ class ObjFile:
 #: MTL texture statements mcpt reads: the diffuse colour, the emitted radiance, the opacity
 #: ("dissolve": a grey cut-out image, mcpt/shading/opacity.py).
 MTL_MAPS = ("map_kd", "map_ke", "map_d")
+#: MTL statements for what mcpt does not read from an MTL (bump and normal maps, PBR and specular
+#: maps): said once per MTL file (issue #22), so a scene that needs them gives them in the YAML
+#: (``bump_map``, ``normal_map``, ``roughness_texture``) instead of rendering flat without a word.
+MTL_IGNORED = ("bump", "map_bump", "norm", "map_pr", "map_pm", "map_ks", "map_ns", "disp", "refl")
 
 
 @dataclass
@@ -236,13 +240,23 @@ class MtlLibrary:
         for mtl in files:
             if mtl not in texts:  # a file named twice is read once
                 texts[mtl] = _read_text(mtl)
+            ignored: dict[str, list[str]] = {}
             for name, key, rest in _statements(texts[mtl]):
                 declared.setdefault(name, set()).add(key)
+                if key in MTL_IGNORED:
+                    ignored.setdefault(key, [])
+                    if name not in ignored[key]:
+                        ignored[key].append(name)
                 if key in MTL_MAPS:
                     file = map_file(rest).replace("\\", "/")
                     if file:
                         spelled = key[:4] + (key[4:].capitalize() if key != "map_d" else "d")
                         maps.setdefault(name, {})[key] = TextureMap(mtl, spelled, mtl.parent / file)
+            if ignored:
+                what = "; ".join(f"{k} (material{'s' if len(v) > 1 else ''} {', '.join(v[:3])}"
+                                 f"{', ...' if len(v) > 3 else ''})" for k, v in ignored.items())
+                log.warning("%s: ignored by mcpt: %s; give bump_map / normal_map / roughness_texture in "
+                            "the scene's material instead", mtl, what)
         return cls(declared, maps)
 
 

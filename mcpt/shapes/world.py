@@ -140,8 +140,8 @@ def _load_part(scene: Scene, mi: int, resolver: MaterialResolver) -> MeshPart:
         raise MeshError(f"{scene.where('meshes', mi, 'file')}: {exc}") from None
     ids = resolver.mesh_ids(mi, spec, mesh.materials)
     if need_uvs and mesh.uvs is None:
-        log.warning("%s: material %r has an albedo texture but the mesh has no UVs; "
-                    "it reads texture coordinate (0, 0)", spec.file, spec.material)
+        log.warning("%s: material %r is textured but the mesh has no UVs; "
+                    "its textures read texture coordinate (0, 0)", spec.file, spec.material)
     part = _rebased(mesh, ids, np.asarray(scene.origin, np.float64))
     if resolver.needs_tangents(spec) and mesh.uvs is not None:
         part.tangents = vertex_tangents(mesh.vertices, mesh.faces, mesh.uvs, mesh.normals)[mesh.faces]
