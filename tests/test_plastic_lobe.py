@@ -1,7 +1,8 @@
 """Smooth plastic's lobe choice (issue #21, "Variance"; glsl/bsdf_plastic.glsl, host twin
 mcpt.shading.materials.plastic_spec_prob): the coat is sampled with Mitsuba 3's probability
 Fo w / (Fo w + (1 - Fo)(1 - w)), w = 1 / (1 + mean A), its sample weighs Fo / ps, and the diffuse
-lobe still samples its pdf (chi-square on the real GLSL, as tests/test_sampling.py)."""
+lobe still samples its pdf (chi-square on the real GLSL, as tests/test_sampling.py). Also the
+statistics of bench/plastic_variance.py, which measured it, on synthetic runs."""
 
 import math
 
@@ -63,3 +64,41 @@ def test_diffuse_lobe_chi2_with_the_new_choice(gl, albedo, ior, cos_o, flags):
     cell, pdf and weight consistent per sample) on the plastic at other angles, albedos and modes."""
     name = f"plastic-{albedo[0]}-{ior}-{cos_o}-{flags}"
     sampling.test_bsdf_sampling_matches_its_pdf(gl, name, _u(albedo, ior, cos_o, flags))
+
+
+# ----------------------------------------------------------------------------------------------
+# bench/plastic_variance.py: the statistics on synthetic runs (no renderer)
+
+
+def test_bench_variance_ratio_trim_and_firefly_share():
+    from mcpt.bench import plastic_variance as pv
+
+    rng = np.random.default_rng(3)
+    ref = np.full((20, 10, 3), 0.5)
+    mts = ref + rng.normal(0.0, 0.05, (16, 20, 10, 3))
+    mc = ref + rng.normal(0.0, 0.1, (16, 20, 10, 3))   # 4x the variance everywhere
+    r = pv.compare(mc, mts)
+    assert r["ratio"] == pytest.approx(4.0, rel=0.15) and r["ratio_trim"] == pytest.approx(4.0, rel=0.15)
+    assert 0.0 < r["ratio_se"] < 1.0
+    mc[5, 3, 4] += 50.0  # one firefly in one run: the overall ratio jumps, the trimmed one not
+    f = pv.compare(mc, mts)
+    assert f["ratio"] > 10 * r["ratio"] and f["ratio_trim"] == pytest.approx(r["ratio_trim"], rel=0.05)
+    assert f["top1_share_mcpt"] > 0.9 and r["top1_share_mcpt"] < 0.1
+
+
+def test_bench_renders_each_mitsuba_run_at_the_full_spp(monkeypatch, tmp_path):
+    """One Mitsuba process per run at ``spp``: ``run_mitsuba(spp, runs=R)`` would split spp over
+    the R runs, and its spread would be that of spp / R images (an 8x error at R = 8)."""
+    from mcpt.bench import differential
+    from mcpt.bench import plastic_variance as pv
+
+    calls = []
+
+    def fake(scene, spp, seed, defines, runs, tmp, resolution=None):
+        calls.append((spp, seed, runs, resolution))
+        return {"mean": np.full((2, 2, 3), float(seed))}
+
+    monkeypatch.setattr(differential, "run_mitsuba", fake)
+    images = pv.mitsuba_runs(tmp_path / "s.xml", 64, 3, "4x4", tmp_path)
+    assert calls == [(64, 0, 1, "4x4"), (64, 1, 1, "4x4"), (64, 2, 1, "4x4")]
+    assert images.shape == (3, 2, 2, 3)
