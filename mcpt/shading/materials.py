@@ -95,6 +95,17 @@ def fdr_internal(ior: float) -> float:
     return 1.0 - (1.0 - fresnel_diffuse_reflectance(float(ior))) / float(ior) ** 2
 
 
+def plastic_spec_prob(albedo, cos_o, ior: float):
+    """The probability that the smooth plastic (glsl/bsdf_plastic.glsl, same formula) samples its
+    coat: Mitsuba 3's rule (src/bsdfs/plastic.cpp), Fo w / (Fo w + (1 - Fo)(1 - w)) with Fo the
+    coat's Fresnel reflectance at cos_o and w = 1 / (1 + mean(albedo)) (the albedo at the hit, where
+    Mitsuba takes a texture's mean). Issue #21 "Variance": it replaced Fo / (Fo + (1 - Fo) max3(A)),
+    whose rarer coat samples carry larger weights Fo / ps (README, "Smooth plastic's lobe choice")."""
+    fo = fresnel_dielectric(cos_o, ior)
+    w = 1.0 / (1.0 + np.mean(np.asarray(albedo, np.float64), axis=-1))
+    return fo * w / (fo * w + (1.0 - fo) * (1.0 - w))
+
+
 @dataclass(frozen=True)
 class MaterialTable:
     names: tuple[str, ...]
