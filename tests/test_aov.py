@@ -284,7 +284,8 @@ def test_aovs_resume_bit_identically_and_refuse_another_set(folder):
     r = CliRunner().invoke(main, ["render", "wall.yaml", "--spp", "120", "--resume", "-o", "c.exr",
                                   "--quiet"])
     assert r.exit_code == 2
-    assert len(r.stderr.strip().splitlines()) == 1 and "aov_targets" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "rendered with the AOVs albedo,depth,variance, this render asks for none" in r.stderr, r.stderr
 
 
 def test_farm_renders_the_same_layers(folder):

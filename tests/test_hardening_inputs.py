@@ -265,7 +265,7 @@ def test_a_crafted_merge_input_is_one_line(folder, made, case):
 
 
 @pytest.mark.parametrize("name,make,says", [
-    ("trunc.exr", lambda s: s[:3000], "not a readable EXR ((EXR_ERR_BAD_CHUNK_LEADER)"),
+    ("trunc.exr", lambda s: s[:3000], "not a readable EXR ("),  # OpenEXR's own words vary
     ("flip.exr", lambda s: s[:-40] + bytes(b ^ 0xFF for b in s[-40:]), "not a readable EXR ("),
     ("t100.exr", lambda s: s[:100], "not a readable EXR ("),
     ("empty.exr", lambda s: b"", "not an EXR file (empty)"),
