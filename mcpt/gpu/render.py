@@ -162,7 +162,7 @@ class Renderer:
         # Samples per pixel per draw (path regeneration, features.samples_per_draw: up to 64 by
         # the image's size); 1 where numbers are uploaded per pass.
         self.samples_per_draw = 1 if features.uploads_random else samples_per_draw(self.width, self.height)
-        self.band_paths = BAND_PATHS
+        self.band_paths, self.band_seconds = BAND_PATHS, BAND_SECONDS  # mcpt/gpu/bands.py
         self._speed = 0.0  # paths/s of the last draw timed (Renderer._band_paths)
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
                         for _ in range(n_targets)]
@@ -267,7 +267,7 @@ class Renderer:
         the last draw where that is more (a hardware GPU draws 2^22 paths in milliseconds, where
         a wait between bands would cost more than it saves). Bands change no pixel, so their
         size may follow the clock."""
-        fit = int(self._speed * BAND_SECONDS)
+        fit = int(self._speed * self.band_seconds)
         return max(self.band_paths, 1 << (fit.bit_length() - 1) if fit > 0 else 0)
 
     def _draw(self, p: int, n: int, todo, bands, streams, drop_draw) -> bool:
