@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import signal
 
+import numpy as np
 import pytest
 
 from mcpt.farm.signals import StopSignals
@@ -19,6 +20,8 @@ from .test_farm import folder, same_bits  # noqa: F401 (folder: a fixture)
 from .test_render import FURNACE
 
 SPP = 64
+SIZE = (64, 48)  # 12 blocks of 16x16 in one column of llvmpipe tiles: parts hold pixels
+PIXELS = SIZE[0] * SIZE[1]
 
 
 class CountingVao:
@@ -32,9 +35,12 @@ class CountingVao:
     def render(self, *args, **kw):
         if self.before is not None:
             self.before(len(self.paths))
-        sc = self.r.gl.ctx.scissor
-        area = sc[2] * sc[3] if sc is not None else self.r.width * self.r.height
-        self.paths.append(area * self.r.program["u_samples"].value)
+        x0, y0, w, h = self.r.gl.ctx.scissor or (0, 0, self.r.width, self.r.height)
+        part, parts = self.r.program["u_parts"].value[:2]
+        y, x = np.mgrid[y0:y0 + h, x0:x0 + w]  # GL rows; a part's 16x16 blocks (fullscreen.vert)
+        block = ((x >> 4) & 3) + 4 * ((y >> 4) & 3)
+        covered = int((block % parts == part).sum()) if parts > 1 else w * h
+        self.paths.append(covered * self.r.program["u_samples"].value)
         return self.vao.render(*args, **kw)
 
     def release(self):
@@ -53,31 +59,34 @@ def _same(a, b):
     return len(a) == len(b) and all(x[0] == y[0] and same_bits(x[1], y[1]) for x, y in zip(a, b))
 
 
-def test_plan_bands_covers_the_tile_in_strips_of_at_most_the_paths_asked():
-    assert plan_bands((0, 0, 256, 256), 64, 0) == [(0, 0, 256, 256)]
-    assert plan_bands((0, 0, 256, 256), 64, 1 << 22) == [(0, 0, 256, 256)]
-    bands = plan_bands((0, 4, 250, 130), 64, 1 << 18)
-    assert [b[1] for b in bands][0] == 4 and sum(b[3] for b in bands) == 130
-    assert all(b[0] == 0 and b[2] == 250 and b[3] * 250 * 64 <= 1 << 18 for b in bands)
-    assert all(a[1] + a[3] == b[1] for a, b in zip(bands, bands[1:]))
-    assert plan_bands((0, 0, 4, 3), 64, 1) == [(0, 0, 4, 1), (0, 1, 4, 1), (0, 2, 4, 1)]  # a row at least
+def test_plan_bands_covers_the_tile_in_parts_of_at_most_the_paths_asked():
+    """Strips of rows of 2^16 pixels at least, each in 2^k interleaved parts (glsl/fullscreen.vert)."""
+    assert plan_bands((0, 0, 256, 256), 64, 0) == [(0, 0, 256, 256, 0, 1)]
+    assert plan_bands((0, 0, 256, 256), 64, 1 << 22) == [(0, 0, 256, 256, 0, 1)]
+    assert plan_bands((0, 0, 256, 256), 64, 1 << 18) == [(0, 0, 256, 256, k, 16) for k in range(16)]
+    for tile, samples in (((0, 4, 250, 130), 64), ((0, 0, 512, 512), 16), ((0, 0, 4096, 4096), 4)):
+        bands = plan_bands(tile, samples, 1 << 18)
+        strips = sorted({b[:4] for b in bands}, key=lambda b: b[1])
+        assert strips[0][1] == tile[1] and sum(b[3] for b in strips) == tile[3]
+        assert all(a[1] + a[3] == b[1] for a, b in zip(strips, strips[1:]))
+        assert all(b[2] * b[3] * samples <= b[5] * (1 << 18) for b in bands)
 
 
 @pytest.mark.parametrize("aovs", [(), ("albedo", "normal", "depth", "variance")])
 def test_bands_change_no_bit(folder, aovs):  # noqa: F811
-    """Drawn in bands of one or two rows, every read-back (beauty, squares, AOVs) is the one of
-    whole draws, bit for bit."""
+    """Drawn in bands (72x40: 16 parts of one strip, or 4), every read-back (beauty, squares,
+    AOVs) is the one of whole draws, bit for bit."""
     from mcpt.prepare import prepare
 
-    p = prepare(folder / "scene.yaml", aovs=aovs, seed=3)
+    p = prepare(folder / "scene.yaml", aovs=aovs, seed=3, resolution=(72, 40))
     r = p.renderer
     try:
         whole = _sums(r, 2 * SPP + 8)
-        for band_paths in (12 * SPP, 24 * SPP + 7):
+        for band_paths in (72 * SPP, 72 * 8 * SPP + 7):
             vao = r.vao = CountingVao(r)
             banded = _sums(r, 2 * SPP + 8, band_paths)
             r.vao = vao.vao
-            assert len(vao.paths) > 3 and max(vao.paths) <= band_paths
+            assert len(vao.paths) > 3 and sum(vao.paths) == 72 * 40 * (2 * SPP + 8)  # each pixel once
             assert _same(banded, whole)
     finally:
         r.release()
@@ -91,12 +100,12 @@ def test_bands_change_no_bit_with_uploaded_numbers_in_tiles(folder, gl):  # noqa
     from mcpt.scene import load_scene
     from mcpt.shapes.world import load_world
 
-    world = load_world(load_scene(folder / "scene.yaml"))
+    world = load_world(load_scene(folder / "scene.yaml").with_overrides(resolution=SIZE))
     feats = for_world(world, sampler="independent")
-    r = Renderer(gl, feats, pack(world, feats), max_random_per_tile=12 * feats.random_dims * 5)
+    r = Renderer(gl, feats, pack(world, feats), max_random_per_tile=64 * feats.random_dims * 24)
     try:
         assert len(r.tiles) == 2
-        assert _same(_sums(r, 12, 12, chunk=8), _sums(r, 12, chunk=8))
+        assert _same(_sums(r, 12, 64 * 4, chunk=8), _sums(r, 12, chunk=8))
     finally:
         r.release()
 
@@ -106,13 +115,13 @@ def test_bands_change_no_bit_with_continued_paths():
     from mcpt.prepare import prepare
     from mcpt.scene import load_scene
 
-    scene = load_scene(FURNACE).with_overrides(resolution=(3, 4))
+    scene = load_scene(FURNACE).with_overrides(resolution=(20, 18))
     p = prepare(scene, bounces=400, feature_flags={"russian_roulette": False})
     if not p.features.continues:  # pragma: no cover - a GPU without a loop limit
         pytest.skip("this driver has no loop limit")
     r = p.renderer
     try:
-        assert _same(_sums(r, 4, 3 * 4), _sums(r, 4))
+        assert _same(_sums(r, 4, 20 * 18), _sums(r, 4))
     finally:
         r.release()
 
@@ -134,10 +143,10 @@ def test_a_signal_stops_inside_the_draw(folder):  # noqa: F811
     from mcpt.prepare import prepare
     from mcpt.render import Options, run
 
-    p = prepare(folder / "scene.yaml", seed=3)
+    p = prepare(folder / "scene.yaml", seed=3, resolution=SIZE)
     r = p.renderer
     try:
-        r.band_paths, r.band_seconds = 12 * 2 * SPP, 0.0  # 2 rows: 5 bands
+        r.band_paths, r.band_seconds = PIXELS * SPP // 4, 0.0  # 4 parts
         signals, before = _signal_during_band(r, 0)
         vao = r.vao = CountingVao(r, before)
         out = run(p, Options(spp=4 * SPP), signals)
@@ -146,7 +155,7 @@ def test_a_signal_stops_inside_the_draw(folder):  # noqa: F811
         r.release()
     assert out.stopped_by == "signal" and out.interrupted == signal.SIGTERM
     assert out.result.spp == 0
-    assert sum(vao.paths) <= 12 * 2 * SPP  # from the signal on: the band in progress
+    assert vao.paths == [PIXELS * SPP // 4]  # from the signal on: the band in progress
 
 
 @pytest.fixture
@@ -154,22 +163,22 @@ def eight_a_draw(monkeypatch):
     """Draws of 8 samples at the folder's 12x10 pixels: draws end inside a read-back chunk."""
     from mcpt.gpu import features
 
-    monkeypatch.setattr(features, "PATHS_PER_DRAW", 12 * 10 * 8)
+    monkeypatch.setattr(features, "PATHS_PER_DRAW", PIXELS * 8)
 
 
 def test_a_draw_dropped_inside_a_chunk_resumes_bit_identically(folder, eight_a_draw):  # noqa: F811
-    """8 samples a draw: a signal in the second band of the third draw (passes 16..23) keeps
+    """8 samples a draw: a signal in the second part of the third draw (passes 16..23) keeps
     passes 0..15 exactly as the target held them; the checkpoint resumes to the bits of one
     uninterrupted render."""
     from mcpt.prepare import prepare
     from mcpt.render import Options, run
 
-    p = prepare(folder / "scene.yaml", seed=3)
+    p = prepare(folder / "scene.yaml", seed=3, resolution=SIZE)
     r = p.renderer
     try:
         assert r.samples_per_draw == 8
-        r.band_paths, r.band_seconds = 12 * 2 * 8, 0.0  # 5 bands a draw
-        signals, before = _signal_during_band(r, 2 * 5 + 1)
+        r.band_paths, r.band_seconds = PIXELS * 8 // 4, 0.0  # 4 parts a draw
+        signals, before = _signal_during_band(r, 2 * 4 + 1)
         r.vao = CountingVao(r, before)
         out = run(p, Options(["a.exr"], spp=SPP, checkpoint=1000.0), signals)
         r.vao = r.vao.vao
@@ -213,10 +222,10 @@ def test_a_budget_that_cannot_hold_the_first_draw_writes_nothing(folder):  # noq
     from mcpt.prepare import prepare
     from mcpt.render import BudgetError, Options, run
 
-    p = prepare(folder / "scene.yaml", seed=3)
+    p = prepare(folder / "scene.yaml", seed=3, resolution=SIZE)
     r = p.renderer
     try:
-        r.band_paths, r.band_seconds = 12 * 2 * SPP, 0.0
+        r.band_paths, r.band_seconds = PIXELS * SPP // 4, 0.0
         with pytest.raises(BudgetError, match=r"--time 1: the first draw would end at about"):
             run(p, Options(["a.exr"], spp=4 * SPP, time_budget=1.0, started=time.perf_counter() - 50))
     finally:

@@ -2,18 +2,21 @@
 
 A draw holds up to 2^22 paths (mcpt/gpu/features.py PATHS_PER_DRAW), 2.5-6 s on llvmpipe, and a
 signal or ``--time`` used to wait for the whole of it. Where the render loop may stop
-(mcpt/render.py), Renderer.passes draws each draw as several GL draws, strips of rows of at most
-BAND_PATHS paths (the scissor), and asks between them whether to go on; a draw cut short is
-dropped whole (the target keeps the passes before it), so a stop still falls on the draw grid.
+(mcpt/render.py), Renderer.passes draws each draw as several GL draws of at most BAND_PATHS
+paths and asks between them whether to go on; a draw cut short is dropped whole (the target
+keeps the passes before it), so a stop still falls on the draw grid.
 
 A band changes no pixel: each pixel's samples of a draw are still taken by one shader
 invocation with the same numbers (sobol numbers depend on the pixel and the sample index) and
 added into the target once. How many bands there are may therefore follow the clock
 (Renderer._band_paths) without touching determinism.
 
-Measured (bench/stop_latency.py): interleaved 16x16 blocks in place of strips, so that every
-band spreads over all of llvmpipe's 64x64 tiles, cost 7-10 % more CPU: llvmpipe spends ~0.27 us
-a pixel on a fragment that is discarded at once, 1/16 of a 2^18-path band's work per band.
+A band is a strip of rows (the scissor) of STRIP_PIXELS pixels at least and one of ``parts``
+interleaved sets of its 16x16 blocks, drawn as two triangles each (glsl/fullscreen.vert): llvmpipe
+shares a draw among its threads by 64x64 tiles and waits for the last at the end of each, so a
+band of 4 tiles (a strip of a 256-wide image) left a thread idle while another finished (bands
+x0.90 wall, same CPU, bench/stop_latency.py); parts keep every tile of the strip in every band.
+Discarding the pixels of other parts in the fragment shader instead cost 0.27 us a pixel.
 """
 
 from __future__ import annotations
@@ -22,16 +25,39 @@ from __future__ import annotations
 #: last draw showed that BAND_SECONDS' worth is more (Renderer._band_paths: a hardware GPU).
 BAND_PATHS = 1 << 18
 BAND_SECONDS = 0.25
+#: Pixels a strip of rows holds at least (16 of llvmpipe's tiles), and the most parts of a strip
+#: (glsl/fullscreen.vert: 16 blocks a tile).
+STRIP_PIXELS = 1 << 16
+MAX_PARTS = 16
+TILE = 64  # llvmpipe's tile, in pixels; 4x4 blocks of 16
 
 
-def plan_bands(tile: tuple, samples: int, band_paths: int) -> list[tuple[int, int, int, int]]:
-    """``tile`` (x0, y0, w, h; rows from the top) as strips of rows of nearly equal height, each
-    of at most ``band_paths`` paths (``samples`` a pixel; one row at least); the whole tile when
-    ``band_paths`` is 0."""
+def plan_bands(tile: tuple, samples: int, band_paths: int) -> list[tuple[int, ...]]:
+    """``tile`` (x0, y0, w, h; rows from the top) in bands of at most ``band_paths`` paths
+    (``samples`` a pixel) where that can be: ``(x0, y0, w, h, part, parts)``, a strip of rows
+    and which of its ``parts`` sets of blocks; the whole tile when ``band_paths`` is 0."""
     x0, y0, w, h = tile
-    rows = band_paths // max(1, samples * w) if band_paths else h
-    if rows >= h:
-        return [(x0, y0, w, h)]
-    k = -(-h // max(rows, 1))
-    edges = [y0 + h * i // k for i in range(k + 1)]
-    return [(x0, a, w, b - a) for a, b in zip(edges, edges[1:])]
+    if not band_paths or w * h * samples <= band_paths:
+        return [(x0, y0, w, h, 0, 1)]
+    rows = -(-STRIP_PIXELS // w)
+    rows = max(16, min(-(-rows // 16) * 16, MAX_PARTS * band_paths // (w * samples) // 16 * 16))
+    out = []
+    for y in range(y0, y0 + h, rows):
+        strip = min(rows, y0 + h - y)
+        parts = 1
+        while parts < MAX_PARTS and w * strip * samples > parts * band_paths:
+            parts *= 2
+        out += [(x0, y, w, strip, k, parts) for k in range(parts)]
+    return out
+
+
+def part_geometry(band: tuple, width: int, height: int) -> tuple[tuple[int, int, int, int], int]:
+    """glsl/fullscreen.vert's ``u_parts`` and the vertex count for ``band`` (plan_bands) in a
+    ``width`` x ``height`` window: all tiles of the tile rows the strip crosses (rows from the
+    bottom, as GL counts them); the scissor keeps the strip."""
+    x0, y0, w, h, part, parts = band
+    if parts == 1:
+        return (0, 1, 0, 1), 3
+    first, last = (height - y0 - h) // TILE, (height - y0 - 1) // TILE
+    across = -(-width // TILE)
+    return (part, parts, first, across), (last - first + 1) * across * (16 // parts) * 6

@@ -34,7 +34,7 @@ from ..shading.sampler import RandomNumbers
 from ..shading.sobol import seed32
 from . import aov as aov_mod
 from . import shader
-from .bands import BAND_PATHS, BAND_SECONDS, plan_bands
+from .bands import BAND_PATHS, BAND_SECONDS, part_geometry, plan_bands
 from .context import GLContext
 from .features import Features, samples_per_draw
 from .host_memory import available_bytes, host_bytes
@@ -260,6 +260,7 @@ class Renderer:
                     return
         finally:
             ctx.scissor = None
+            self._uniform("u_parts", (0, 1, 0, 1))
             ctx.disable(moderngl.BLEND)
 
     def _band_paths(self) -> int:
@@ -288,14 +289,17 @@ class Renderer:
             self._uniform("u_tile", (x0, y0, w, h))  # the tile, whatever band of it is drawn
             self._uniform("u_rand_stride", w * h)
             self._draws += 1
-            for bx, by, bw, bh in parts:
+            for band in parts:
+                bx, by, bw, bh = band[:4]
                 # GL rows count from the bottom; tiles and bands are given from the top.
                 ctx.scissor = (bx, self.height - by - bh, bw, bh)
+                geometry, vertices = part_geometry(band, self.width, self.height)
+                self._uniform("u_parts", geometry)
                 if self.paths is not None:
                     self.paths.reset_count()
-                self.vao.render(moderngl.TRIANGLES, vertices=3)
+                self.vao.render(moderngl.TRIANGLES, vertices=vertices)
                 if self.paths is not None:  # long paths: further draws until all have ended
-                    self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
+                    self.paths.finish(lambda v=vertices: self.vao.render(moderngl.TRIANGLES, vertices=v),
                                       lambda v: self._uniform("u_continue", v),
                                       limit=n * (self.features.bounces + 2))
                 done += 1
