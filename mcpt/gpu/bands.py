@@ -12,11 +12,13 @@ added into the target once. How many bands there are may therefore follow the cl
 (Renderer._band_paths) without touching determinism.
 
 A band is a strip of rows (the scissor) of STRIP_PIXELS pixels at least and one of ``parts``
-interleaved sets of its 16x16 blocks, drawn as two triangles each (glsl/fullscreen.vert): llvmpipe
+interleaved sets of its 16x16 blocks, drawn as points of size 16 (glsl/fullscreen.vert): llvmpipe
 shares a draw among its threads by 64x64 tiles and waits for the last at the end of each, so a
 band of 4 tiles (a strip of a 256-wide image) left a thread idle while another finished (bands
 x0.90 wall, same CPU, bench/stop_latency.py); parts keep every tile of the strip in every band.
-Discarding the pixels of other parts in the fragment shader instead cost 0.27 us a pixel.
+Discarding the pixels of other parts in the fragment shader instead cost 0.27 us a pixel; blocks
+as two triangles each cost 26 % more CPU (llvmpipe shades a 4x4 pixel group that a diagonal
+crosses once for each triangle).
 """
 
 from __future__ import annotations
@@ -52,12 +54,18 @@ def plan_bands(tile: tuple, samples: int, band_paths: int) -> list[tuple[int, ..
 
 
 def part_geometry(band: tuple, width: int, height: int) -> tuple[tuple[int, int, int, int], int]:
-    """glsl/fullscreen.vert's ``u_parts`` and the vertex count for ``band`` (plan_bands) in a
-    ``width`` x ``height`` window: all tiles of the tile rows the strip crosses (rows from the
-    bottom, as GL counts them); the scissor keeps the strip."""
+    """glsl/fullscreen.vert's ``u_parts`` and its vertex count for ``band`` (plan_bands) in a
+    ``width`` x ``height`` window: a point for each block of the part in all tiles of the tile
+    rows the strip crosses (rows from the bottom, as GL counts them); the scissor keeps the
+    strip. A whole draw (one part): the triangle that covers the window, 3 vertices."""
     x0, y0, w, h, part, parts = band
     if parts == 1:
         return (0, 1, 0, 1), 3
     first, last = (height - y0 - h) // TILE, (height - y0 - 1) // TILE
     across = -(-width // TILE)
-    return (part, parts, first, across), (last - first + 1) * across * (16 // parts) * 6
+    return (part, parts, first, across), (last - first + 1) * across * (16 // parts)
+
+
+def padded(width: int, height: int) -> tuple[int, int, int, int]:
+    """The viewport of a part's points: the window padded to whole tiles (glsl/fullscreen.vert)."""
+    return 0, 0, -(-width // TILE) * TILE, -(-height // TILE) * TILE

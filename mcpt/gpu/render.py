@@ -34,7 +34,7 @@ from ..shading.sampler import RandomNumbers
 from ..shading.sobol import seed32
 from . import aov as aov_mod
 from . import shader
-from .bands import BAND_PATHS, BAND_SECONDS, part_geometry, plan_bands
+from .bands import BAND_PATHS, BAND_SECONDS, padded, part_geometry, plan_bands
 from .context import GLContext
 from .features import Features, samples_per_draw
 from .host_memory import available_bytes, host_bytes
@@ -219,7 +219,7 @@ class Renderer:
         if carry is not None:
             for i, target in enumerate(self.targets):
                 target.write(np.ascontiguousarray(np.flipud(carry[i]), np.float32).tobytes())
-        ctx.enable(moderngl.BLEND)
+        ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)  # points: bands.py
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         for t in self.tbos.values():
             t.bind()
@@ -260,8 +260,9 @@ class Renderer:
                     return
         finally:
             ctx.scissor = None
+            ctx.viewport = (0, 0, self.width, self.height)
             self._uniform("u_parts", (0, 1, 0, 1))
-            ctx.disable(moderngl.BLEND)
+            ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
 
     def _band_paths(self) -> int:
         """Paths a band holds: ``band_paths``, or as many as BAND_SECONDS takes at the speed of
@@ -295,11 +296,13 @@ class Renderer:
                 ctx.scissor = (bx, self.height - by - bh, bw, bh)
                 geometry, vertices = part_geometry(band, self.width, self.height)
                 self._uniform("u_parts", geometry)
+                mode = moderngl.TRIANGLES if vertices == 3 else moderngl.POINTS
+                ctx.viewport = (0, 0, self.width, self.height) if vertices == 3 else padded(self.width, self.height)
                 if self.paths is not None:
                     self.paths.reset_count()
-                self.vao.render(moderngl.TRIANGLES, vertices=vertices)
+                self.vao.render(mode, vertices=vertices)
                 if self.paths is not None:  # long paths: further draws until all have ended
-                    self.paths.finish(lambda v=vertices: self.vao.render(moderngl.TRIANGLES, vertices=v),
+                    self.paths.finish(lambda m=mode, v=vertices: self.vao.render(m, vertices=v),
                                       lambda v: self._uniform("u_continue", v),
                                       limit=n * (self.features.bounces + 2))
                 done += 1
