@@ -92,6 +92,22 @@ def test_bands_change_no_bit(folder, aovs):  # noqa: F811
         r.release()
 
 
+def test_strips_of_rows_change_no_bit(folder, monkeypatch):  # noqa: F811
+    """Large images are cut into strips of rows first (here 16 rows of 72: 3 strips, 1-4 parts
+    each): the same bits as whole draws."""
+    from mcpt.gpu import bands
+    from mcpt.prepare import prepare
+
+    monkeypatch.setattr(bands, "STRIP_PIXELS", 72 * 16)
+    p = prepare(folder / "scene.yaml", seed=3, resolution=(72, 40))
+    r = p.renderer
+    try:
+        assert len({b[:4] for b in plan_bands((0, 0, 72, 40), SPP, 72 * 16 * SPP // 2)}) == 3
+        assert _same(_sums(r, SPP + 8, 72 * 16 * SPP // 2), _sums(r, SPP + 8))
+    finally:
+        r.release()
+
+
 def test_bands_change_no_bit_with_uploaded_numbers_in_tiles(folder, gl):  # noqa: F811
     """The independent sampler's tiles (random numbers per tile), each in bands."""
     from mcpt.gpu.features import for_world
