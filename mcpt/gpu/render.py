@@ -275,6 +275,12 @@ class Renderer:
     def _draw(self, p: int, n: int, todo, bands, streams, drop_draw) -> bool:
         """Passes ``p .. p+n-1`` of the tiles ``todo``, each in its ``bands``; False when
         ``drop_draw`` asked to drop the draw (then some bands hold the passes and some not)."""
+        try:
+            return self._draw_bands(p, n, todo, bands, streams, drop_draw)
+        finally:
+            self.gl.ctx.viewport = (0, 0, self.width, self.height)  # read-backs read the viewport
+
+    def _draw_bands(self, p: int, n: int, todo, bands, streams, drop_draw) -> bool:
         ctx = self.gl.ctx
         total, done = sum(map(len, bands)), 0
         for (ti, (x0, y0, w, h)), parts in zip(todo, bands):
