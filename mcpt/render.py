@@ -44,6 +44,10 @@ class RangeError(McptError, ValueError):
     """A pass range (--first-pass) that is not one."""
 
 
+class BudgetError(McptError, RuntimeError):
+    """A time budget that ran out before the first draw of a render ended: no pass to write."""
+
+
 @dataclass
 class Options:
     outputs: list = field(default_factory=list)  # images to write (none: the result only)
@@ -174,8 +178,10 @@ class _Loop:
                 last[0] = summed
                 return action[0] is not None
 
+            control.draw_started = time.perf_counter()  # not the checkpoint written before
             for summed, sums in r.passes(self.seed, acc.spp, self.spp, chunk=acc.chunk,
-                                         carry=acc.partial, interrupt=after_draw):
+                                         carry=acc.partial, interrupt=after_draw,
+                                         drop_draw=control.drop_draw):
                 acc.add(summed, sums)
             self.random_seconds += r.random_seconds
             if action[0] == "checkpoint":
@@ -232,6 +238,11 @@ class _Loop:
         """The last checkpoint or image, and what the render did."""
         opts, stop = self.opts, self.control.stop
         written = []
+        if stop == "time" and self.acc.spp == opts.first_pass:  # issue #24 item 8: a draw cut
+            c = self.control
+            raise BudgetError(f"--time {opts.time_budget:g}: the first draw would end at about "
+                              f"{c.foreseen_end:.1f} s (set-up took {c.t_run - opts.started:.2f} s), "
+                              "past the budget; nothing written, give it more time")
         if stop == "signal":
             if opts.checkpoint is not None and self.acc.spp > self.resumed_from:
                 self.save_checkpoint(final=True)

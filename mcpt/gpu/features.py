@@ -52,11 +52,13 @@ BVH_MIN_TRIANGLES = 64
 # per draw for its slowest lane, so the more samples a draw holds the less its lanes idle. Measured
 # alternating (LP 2 threads, 64 spp, seconds relative to 4 a draw): Cornell box 128x128 16 -> 0.88,
 # 32 -> 0.85; 256x256 64 -> 0.82; 512x512 16 -> 0.88, 64 -> 0.83; 100k sphere 128x128 64 -> 0.89
-# (the gain is per pixel, not a per-draw overhead: it holds at every size). The cap is the draw's
-# length: a draw is where --time and signals can step in, so it holds at most PATHS_PER_DRAW
-# paths (~3 s at the 100k sphere's 1.3 M paths/s on llvmpipe) unless that would mean fewer than
-# MIN_SAMPLES_PER_DRAW samples; MAX_SAMPLES_PER_DRAW is the read-back chunk (render.py), which a
-# draw never spans. needs_continuation below assumes no draw takes more than the maximum.
+# (the gain is per pixel, not a per-draw overhead: it holds at every size). A draw holds at most
+# PATHS_PER_DRAW paths (~3 s at the 100k sphere's 1.3 M paths/s on llvmpipe) unless that would
+# mean fewer than MIN_SAMPLES_PER_DRAW samples; MAX_SAMPLES_PER_DRAW is the read-back chunk
+# (render.py), which a draw never spans. needs_continuation below assumes no draw takes more than
+# the maximum. --time and signals step in between the bands of a draw (mcpt/gpu/bands.py, issue
+# #24 item 8), not only between draws: fewer samples a draw would change every pixel and cost
+# paths/s (Cornell box 256^2 re-measured under load, CPU seconds: 32 a draw x0.92-0.96, 16 x0.90).
 PATHS_PER_DRAW = 1 << 22
 
 

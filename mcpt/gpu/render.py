@@ -34,6 +34,7 @@ from ..shading.sampler import RandomNumbers
 from ..shading.sobol import seed32
 from . import aov as aov_mod
 from . import shader
+from .bands import BAND_PATHS, BAND_SECONDS, padded, part_geometry, plan_bands
 from .context import GLContext
 from .features import Features, samples_per_draw
 from .host_memory import available_bytes, host_bytes
@@ -161,6 +162,8 @@ class Renderer:
         # Samples per pixel per draw (path regeneration, features.samples_per_draw: up to 64 by
         # the image's size); 1 where numbers are uploaded per pass.
         self.samples_per_draw = 1 if features.uploads_random else samples_per_draw(self.width, self.height)
+        self.band_paths, self.band_seconds = BAND_PATHS, BAND_SECONDS  # mcpt/gpu/bands.py
+        self._speed = 0.0  # paths/s of the last draw timed (Renderer._band_paths)
         self.targets = [ctx.texture((self.width, self.height), 4, dtype="f4")
                         for _ in range(n_targets)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
@@ -186,7 +189,7 @@ class Renderer:
             self.program[name].value = value
 
     def passes(self, seed: int, start: int, stop: int, *, chunk: int = 64, carry=None,
-               interrupt=None, tiles=None):
+               interrupt=None, drop_draw=None, tiles=None):
         """Draw passes ``start .. stop-1`` of ``seed``; a generator of ``(spp, sums)``: passes
         ``0 .. spp-1`` are drawn (those before ``start`` by an earlier call, or in ``carry``).
 
@@ -199,12 +202,16 @@ class Renderer:
         them up in pass order (one render, a resumed one, tasks of a farm) adds the same numbers
         (mcpt/farm/accumulate.py). ``carry``: the target of an unfinished chunk to continue from;
         ``tiles``: indices into ``self.tiles`` to draw (default all; other pixels stay 0).
+
+        ``drop_draw(spp, done)``: asked between the bands of a draw (:func:`plan_bands`; ``done``:
+        the share of the draw's bands drawn) whether to drop the draw in progress and stop at
+        ``spp``, the passes before it, as if ``interrupt`` had stopped after the draw before
+        (issue #24 item 8: a stop waited up to a whole draw, seconds on llvmpipe).
         """
         ctx = self.gl.ctx
         upload = self.features.uploads_random
-        dims = self.features.random_dims
-        streams = ([RandomNumbers(seed, w * h, dims, tile=i) for i, (_, _, w, h) in enumerate(self.tiles)]
-                   if upload else [])
+        streams = ([RandomNumbers(seed, w * h, self.features.random_dims, tile=i)
+                    for i, (_, _, w, h) in enumerate(self.tiles)] if upload else [])
         todo = [(i, self.tiles[i]) for i in (range(len(self.tiles)) if tiles is None else tiles)]
         self._uniform("u_sobol_seed", seed32(seed))
         self.fbo.use()
@@ -212,7 +219,7 @@ class Renderer:
         if carry is not None:
             for i, target in enumerate(self.targets):
                 target.write(np.ascontiguousarray(np.flipud(carry[i]), np.float32).tobytes())
-        ctx.enable(moderngl.BLEND)
+        ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)  # points: bands.py
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         for t in self.tbos.values():
             t.bind()
@@ -221,7 +228,7 @@ class Renderer:
             self._uniform("u_continue", 0)
         self.random_seconds = 0.0
         spd = self.samples_per_draw
-        draws = 0
+        self._draws = 0
         # Passes in the target at the next read-back: a carried target holds its chunk's passes.
         last = (start // chunk) * chunk if carry is not None else start
         p = start
@@ -229,31 +236,21 @@ class Renderer:
             while p < stop:
                 n = min(spd - p % spd, chunk - p % chunk, stop - p)  # on the global grid
                 self._uniform("u_samples", n)
-                for ti, (x0, y0, w, h) in todo:
-                    if upload:
-                        tr = time.perf_counter()
-                        streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
-                        self.random_seconds += time.perf_counter() - tr
-                        buf = self.random[draws % 2]
-                        buf.write(self._numbers)
-                        buf.bind()
-                    else:
-                        self._uniform("u_sample_index", p)  # sobol: the draw's first sample index
-                    self._uniform("u_tile", (x0, y0, w, h))
-                    self._uniform("u_rand_stride", w * h)
-                    # GL rows count from the bottom; tiles are given from the top.
-                    ctx.scissor = (x0, self.height - y0 - h, w, h)
-                    if self.paths is not None:
-                        self.paths.reset_count()
-                    self.vao.render(moderngl.TRIANGLES, vertices=3)
-                    draws += 1
-                    if self.paths is not None:  # long paths: further draws until all have ended
-                        self.paths.finish(lambda: self.vao.render(moderngl.TRIANGLES, vertices=3),
-                                          lambda v: self._uniform("u_continue", v),
-                                          limit=n * (self.features.bounces + 2))
+                bands = [plan_bands(tile, n, self._band_paths() if drop_draw else 0) for _, tile in todo]
+                t0 = time.perf_counter()
+                # A draw that may be dropped keeps the passes the target holds that the
+                # accumulator does not (after a draw that ended inside a chunk), to stop with.
+                kept = (self._read_targets() if sum(map(len, bands)) > 1 and p not in (last, start)
+                        else None)
+                if not self._draw(p, n, todo, bands, streams, drop_draw):
+                    if kept is not None:
+                        yield p, drop_nonfinite(kept, p - last)
+                    return
+                kept = None  # not held through the read-back (host memory peak, host_memory.py)
                 p += n
                 if interrupt is not None:  # issue #24: time the draw's work, not its queueing
                     ctx.finish()
+                    self._speed = n * sum(w * h for _, (_, _, w, h) in todo) / max(time.perf_counter() - t0, 1e-9)
                 stopping = interrupt is not None and interrupt(p)
                 if p % chunk == 0 or p == stop or stopping:
                     ctx.scissor = None
@@ -263,7 +260,63 @@ class Renderer:
                     return
         finally:
             ctx.scissor = None
-            ctx.disable(moderngl.BLEND)
+            ctx.viewport = (0, 0, self.width, self.height)
+            self._uniform("u_parts", (0, 1, 0, 1))
+            ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
+
+    def _band_paths(self) -> int:
+        """Paths a band holds: ``band_paths``, or as many as BAND_SECONDS takes at the speed of
+        the last draw where that is more (a hardware GPU draws 2^22 paths in milliseconds, where
+        a wait between bands would cost more than it saves). Bands change no pixel, so their
+        size may follow the clock."""
+        fit = int(self._speed * self.band_seconds)
+        return max(self.band_paths, 1 << (fit.bit_length() - 1) if fit > 0 else 0)
+
+    def _draw(self, p: int, n: int, todo, bands, streams, drop_draw) -> bool:
+        """Passes ``p .. p+n-1`` of the tiles ``todo``, each in its ``bands``; False when
+        ``drop_draw`` asked to drop the draw (then some bands hold the passes and some not)."""
+        try:
+            return self._draw_bands(p, n, todo, bands, streams, drop_draw)
+        finally:
+            self.gl.ctx.viewport = (0, 0, self.width, self.height)  # read-backs read the viewport
+
+    def _draw_bands(self, p: int, n: int, todo, bands, streams, drop_draw) -> bool:
+        ctx = self.gl.ctx
+        total, done = sum(map(len, bands)), 0
+        for (ti, (x0, y0, w, h)), parts in zip(todo, bands):
+            if streams:
+                tr = time.perf_counter()
+                streams[ti].fill(p, self._numbers)  # a smaller last tile leaves an unread tail
+                self.random_seconds += time.perf_counter() - tr
+                buf = self.random[self._draws % 2]
+                buf.write(self._numbers)
+                buf.bind()
+            else:
+                self._uniform("u_sample_index", p)  # sobol: the draw's first sample index
+            self._uniform("u_tile", (x0, y0, w, h))  # the tile, whatever band of it is drawn
+            self._uniform("u_rand_stride", w * h)
+            self._draws += 1
+            for band in parts:
+                bx, by, bw, bh = band[:4]
+                # GL rows count from the bottom; tiles and bands are given from the top.
+                ctx.scissor = (bx, self.height - by - bh, bw, bh)
+                geometry, vertices = part_geometry(band, self.width, self.height)
+                self._uniform("u_parts", geometry)
+                mode = moderngl.TRIANGLES if vertices == 3 else moderngl.POINTS
+                ctx.viewport = (0, 0, self.width, self.height) if vertices == 3 else padded(self.width, self.height)
+                if self.paths is not None:
+                    self.paths.reset_count()
+                self.vao.render(mode, vertices=vertices)
+                if self.paths is not None:  # long paths: further draws until all have ended
+                    self.paths.finish(lambda m=mode, v=vertices: self.vao.render(m, vertices=v),
+                                      lambda v: self._uniform("u_continue", v),
+                                      limit=n * (self.features.bounces + 2))
+                done += 1
+                if drop_draw is not None and done < total:
+                    ctx.finish()  # the band's work done: the question is asked in time
+                    if drop_draw(p, done / total):
+                        return False
+        return True
 
     def result(self, total: np.ndarray, spp: int, seed: int, seconds: float,
                random_seconds: float) -> RenderResult:
@@ -287,14 +340,19 @@ class Renderer:
         return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
                             dropped, seconds, random_seconds, setup, aovs, alpha)
 
-    def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
-        """The accumulation targets as (targets, H, W, 4), row 0 at the top; then cleared."""
+    def _read_targets(self, dtype=np.float32) -> np.ndarray:
+        """The accumulation targets as (targets, H, W, 4), row 0 at the top."""
         out = []
         for i in range(len(self.targets)):
             raw = np.frombuffer(self.fbo.read(components=4, dtype="f4", attachment=i), np.float32)
             out.append(np.flipud(raw.reshape(self.height, self.width, 4)))
-        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
         return np.stack(out).astype(dtype)
+
+    def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
+        """The accumulation targets as (targets, H, W, 4), row 0 at the top; then cleared."""
+        out = self._read_targets(dtype)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        return out
 
     def release(self) -> None:
         for t in list(self.tbos.values()) + self.random:
