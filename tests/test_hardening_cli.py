@@ -24,27 +24,12 @@ from mcpt.scene.diagnostics import SceneError
 from mcpt.scene.reader import parse_scene
 
 from .conftest import ROOT
+from .test_cli import FLOOR_OBJ
+from .test_cli import SCENE as CLI_SCENE
 
-FLOOR_OBJ = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 3 2\nf 1 4 3\n"
-
-SCENE = """\
-camera:
-  position: [0, 1, 0]
-  look_at: [0, 0, 0]
-  up: [0, 0, -1]
-  vfov_deg: 4e1
-  resolution: [4, 4]
-render:
-  spp: 1
-  bounces: 1
-materials:
-  glow:
-    albedo: [0.5, 0.5, 0.5]
-    emission: [1, 1, 1]
-meshes:
-  - file: floor.obj
-    material: glow
-"""
+# test_cli's scene, its fov written as 4e1: YAML 1.2 reads it as a float (item 19a)
+SCENE = CLI_SCENE.replace("vfov_deg: 60", "vfov_deg: 4e1")
+assert SCENE != CLI_SCENE
 
 MCPT = str(Path(sys.executable).with_name("mcpt"))
 
