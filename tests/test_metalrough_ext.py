@@ -19,7 +19,7 @@ from mcpt.shading import microfacet as MF
 from mcpt.shapes.world import load_world
 
 from .test_conductor import _err, _mat
-from .test_material_input import gltf_scene, one_error, render
+from .test_material_input import gltf_scene, lacking, one_error, render
 from .test_materials_util import (
     cell_probabilities,
     chi2_test,
@@ -243,4 +243,5 @@ def test_gltf_maps_ior_and_specular(tmp_path, caplog):
 ])
 def test_gltf_bad_values_are_one_located_line(tmp_path, ext, needles):
     out = tmp_path / "o.exr"
-    one_error(render(gltf_scene(tmp_path, {"extensions": ext}), out), out, "s.gltf: materials[0]", *needles)
+    line = one_error(render(gltf_scene(tmp_path, {"extensions": ext}), out), out)
+    assert not lacking(line, "s.gltf: materials[0]", *needles), line

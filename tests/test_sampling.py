@@ -59,7 +59,15 @@ def _uniforms(u):
 
 @pytest.mark.parametrize("name,u", BSDF_CASES, ids=[c[0] for c in BSDF_CASES])
 def test_bsdf_sampling_matches_its_pdf(gl, name, u):
-    u = _uniforms(u)
+    p = bsdf_sampling_p(gl, name, _uniforms(u))
+    assert p > ALPHA, f"{name}: chi2 p = {p:.3g} < {ALPHA:.3g}"
+
+
+def bsdf_sampling_p(gl, name: str, u: dict) -> float:
+    """The chi-square p-value of the GLSL BSDF's samples (``u``: probe uniforms, _uniforms) against
+    its pdf integrated per cell over the sphere (rejected and delta samples one more cell); asserts
+    on the way that the pdf integrates to <= 1 and that each sample's pdf and weight are what
+    bsdf_eval gives for its direction. Other BSDF tests call it with their own uniforms."""
     rnd = uniform_numbers(N, 2, seed=zlib.crc32(name.encode()) + SEED_OFFSET)
     out = floats(probe(gl, "sample", rnd, **u))
     wi, pdf_ret = out[:, :3].astype(np.float64), out[:, 3].astype(np.float64)
@@ -78,7 +86,7 @@ def test_bsdf_sampling_matches_its_pdf(gl, name, u):
     observed = np.append(sphere_histogram(wi[smooth], NT, NP).ravel(), (~smooth).sum())
     expected = np.append(prob.ravel(), max(p_rest, 0.0)) * N
     p, stat, dof = chi2_test(observed, expected)
-    assert p > ALPHA, f"{name}: chi2 = {stat:.1f} for {dof} dof, p = {p:.3g} < {ALPHA:.3g}"
+    print(f"{name}: chi2 = {stat:.1f} for {dof} dof, p = {p:.3g}")
     # The pdf a sample returns is the pdf bsdf_eval gives for its direction (C4).
     pick = np.nonzero(smooth)[0][:4096]
     ev_s = floats(probe(gl, "eval", wi[pick].astype(np.float32), **u))
@@ -86,6 +94,7 @@ def test_bsdf_sampling_matches_its_pdf(gl, name, u):
     # And its weight is f|cos| / pdf.
     w = floats(probe(gl, "weight", rnd[pick], **u))[:, :3]
     np.testing.assert_allclose(w, ev_s[:, :3] / ev_s[:, 3:4], rtol=2e-3)
+    return p
 
 
 def test_cosine_pdf_is_the_analytic_one(gl):
