@@ -10,9 +10,10 @@ files' materials mean as rows of the material table; used by the world's build).
 
 from .diagnostics import SceneError
 from .fields import MAX_RESOLUTION, TEXTURE_SUFFIXES
-from .materials import MATERIAL_KEYS, Absorption, ImageTexture, Material
+from .materials import MATERIAL_KEYS, Absorption, Material
 from .model import Camera, Mesh, RenderSettings, Scene
 from .reader import load_scene, parse_scene
+from .textures import ImageTexture
 from .transform import Transform
 
 __all__ = ["MAX_RESOLUTION", "MATERIAL_KEYS", "TEXTURE_SUFFIXES", "Absorption", "Camera", "ImageTexture",

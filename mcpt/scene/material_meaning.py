@@ -26,11 +26,12 @@ import numpy as np
 from ..shading import metalrough, roughplastic, specular_weights
 from ..shading.materials import MaterialTable
 from ..shading.texture import Texture, TextureError
-from .materials import ImageTexture, Material
+from .materials import Material
 from .model import Mesh, Scene
 from .textures import (
     BumpMap,
     CheckerboardTexture,
+    ImageTexture,
     NormalMap,
     build_bump_map,
     build_normal_map,

@@ -2,104 +2,32 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
     BeforeValidator,
     Field,
-    TypeAdapter,
-    ValidationError,
     ValidationInfo,
     field_validator,
     model_validator,
 )
-from pydantic_core import PydanticCustomError
 
 from ..shading.metals import METALS
 from ..shading.roughdielectric import MIN_ALPHA as ROUGH_GLASS_MIN_ALPHA
 from .diagnostics import FieldError
-from .fields import Albedo, Radiance, StrictModel, fixed_list, texture_file
+from .fields import Albedo, Radiance, StrictModel, fixed_list
 from .medium import Medium
 from .textures import (
     BumpMap,
     CheckerboardTexture,
+    ImageTexture,
     NormalMap,
-    UvTransform,
-    is_checkerboard,
+    RoughnessTexture,
+    colour_or_texture,
     normal_map_shorthand,
+    texture,
+    texture_shorthand,
 )
-
-
-class ImageTexture(StrictModel):
-    """An image used as a colour (mcpt/shading/texture.py), addressed by the mesh's UVs.
-
-    8-bit images are sRGB-encoded and decoded to linear RGB (``encoding``); EXR / HDR / 16-bit
-    images are float textures (mcpt/shading/float_texture.py); the alpha channel is ignored. UV
-    (0, 0) is the image's bottom-left corner (OBJ convention: v points up).
-    """
-
-    file: Path
-    """Image file (PNG, JPEG, ... read by OpenCV), relative to the scene file's folder."""
-    wrap: Literal["repeat", "clamp", "mirror"] = "repeat"
-    """What UVs outside [0, 1] read: the tiled image, the edge texels, or the mirrored image."""
-    filter: Literal["bilinear", "nearest"] = "bilinear"
-    """Bilinear interpolation of the four nearest texels (in linear RGB), or the nearest texel."""
-    uv: UvTransform | None = None
-    """A transform of the UVs before the lookup (mcpt/scene/textures.py)."""
-    channel: Literal["rgb", "alpha"] = "rgb"
-    """``alpha``: the image's alpha channel (linear; 1 where it has none) as a grey texture, for
-    ``opacity`` (glTF's base colour alpha)."""
-    encoding: Literal["srgb", "linear"] | None = None
-    """How an 8/16-bit image's values are read (issue #22): ``srgb`` decoded by the sRGB curve,
-    ``linear`` c / 255 (c / 65535). Default: ``srgb`` for albedo, emission, opacity and
-    specular_reflectance, ``linear`` for metallic_roughness_texture. EXR / HDR are linear
-    whatever it says (Mitsuba's float bitmaps); an alpha channel is linear."""
-
-    @field_validator("file", mode="before")
-    @classmethod
-    def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
-        return texture_file(value, info)
-
-
-class RoughnessTexture(ImageTexture):
-    """A roughness texture (issue #22, mcpt/shading/roughness_texture.py): its first channel (a grey
-    image's grey) times the material's ``roughness`` is the microfacet alpha at each hit, floored at
-    the least alpha the material takes (0.001) and at most 1."""
-
-    encoding: Literal["linear", "srgb"] = "linear"
-    """``linear``: texel c / 255 (a roughness map is data, not colour); ``srgb``: sRGB-decoded, what
-    Mitsuba 3's bitmap does without ``raw=true`` (the Mitsuba reader sets it)."""
-
-
-def _texture_shorthand(value: Any) -> Any:
-    """``albedo_texture: spot.png`` is short for ``albedo_texture: {file: spot.png}``."""
-    return {"file": value} if isinstance(value, (str, Path)) else value
-
-
-def _texture(value: Any, info: ValidationInfo) -> Any:
-    """A texture: a file name or ``{file, ...}`` (an image), or ``{type: checkerboard, ...}``."""
-    if value is None or isinstance(value, (ImageTexture, CheckerboardTexture)):
-        return value
-    return _colour_or_texture(value, info, colours=False)
-
-
-def _colour_or_texture(value: Any, info: ValidationInfo, colours: bool = True) -> Any:
-    """``specular_reflectance``: a number is a grey, a list an RGB colour, a string or a mapping an
-    image texture (or a checkerboard). Validated here, so that an error speaks of the one form
-    that was written."""
-    if colours and isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = [value] * 3
-    try:
-        if colours and isinstance(value, (list, tuple)):
-            return TypeAdapter(Albedo).validate_python(value, strict=True)
-        kind = CheckerboardTexture if is_checkerboard(value) else ImageTexture
-        return TypeAdapter(kind).validate_python(_texture_shorthand(value), context=info.context)
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        where = "".join(f"item {p}: " if isinstance(p, int) else f"{p}: " for p in err["loc"])
-        raise PydanticCustomError("colour_or_texture", "{msg}", {"msg": f"{where}{err['msg']}"}) from None
-
 
 _Positive = Annotated[float, Field(gt=0.0, le=100.0)]
 _NonNegative = Annotated[float, Field(ge=0.0, le=100.0)]
@@ -282,17 +210,17 @@ class Material(StrictModel):
     @field_validator("specular_reflectance", "specular_transmittance", mode="before")
     @classmethod
     def _reflectance(cls, value: Any, info: ValidationInfo) -> Any:
-        return None if value is None else _colour_or_texture(value, info)
+        return None if value is None else colour_or_texture(value, info)
 
     @field_validator("albedo_texture", "opacity", "metallic_roughness_texture", "emission_texture", mode="before")
     @classmethod
     def _albedo_texture(cls, value: Any, info: ValidationInfo) -> Any:
-        return _texture(value, info)
+        return texture(value, info)
 
     @field_validator("roughness_texture", mode="before")
     @classmethod
     def _roughness_texture(cls, value: Any) -> Any:
-        return _texture_shorthand(value)
+        return texture_shorthand(value)
 
     @model_validator(mode="after")
     def _check_keys(self) -> Material:

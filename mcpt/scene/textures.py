@@ -1,5 +1,7 @@
-"""Texture descriptions beyond an image file, as the scene file states them: the UV transform
-every texture may carry (``uv``) and the procedural checkerboard (mcpt/shading/checkerboard.py).
+"""Texture descriptions as the scene file states them: image textures (``ImageTexture``, a roughness
+map's ``RoughnessTexture``, and the parsers of a texture-or-colour key), the UV transform every
+texture may carry (``uv``), the procedural checkerboard (mcpt/shading/checkerboard.py), normal and
+bump maps. Materials (mcpt/scene/materials.py) name them.
 
     albedo_texture: {type: checkerboard, color0: [0.9, 0.9, 0.9], color1: [0.1, 0.1, 0.1],
                      uv: {scale: [8, 8]}}
@@ -16,7 +18,8 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, TypeAdapter, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
 from .diagnostics import FieldError
 from .fields import Albedo, StrictModel, fixed_list, texture_file
@@ -172,3 +175,73 @@ def build_bump_map(ref: BumpMap):
     from ..shading.texture import load_texture
 
     return load_texture(ref.file, ref.wrap, "bilinear", linear=ref.encoding == "linear")
+
+
+class ImageTexture(StrictModel):
+    """An image used as a colour (mcpt/shading/texture.py), addressed by the mesh's UVs.
+
+    8-bit images are sRGB-encoded and decoded to linear RGB (``encoding``); EXR / HDR / 16-bit
+    images are float textures (mcpt/shading/float_texture.py); the alpha channel is ignored. UV
+    (0, 0) is the image's bottom-left corner (OBJ convention: v points up).
+    """
+
+    file: Path
+    """Image file (PNG, JPEG, ... read by OpenCV), relative to the scene file's folder."""
+    wrap: Literal["repeat", "clamp", "mirror"] = "repeat"
+    """What UVs outside [0, 1] read: the tiled image, the edge texels, or the mirrored image."""
+    filter: Literal["bilinear", "nearest"] = "bilinear"
+    """Bilinear interpolation of the four nearest texels (in linear RGB), or the nearest texel."""
+    uv: UvTransform | None = None
+    """A transform of the UVs before the lookup (mcpt/scene/textures.py)."""
+    channel: Literal["rgb", "alpha"] = "rgb"
+    """``alpha``: the image's alpha channel (linear; 1 where it has none) as a grey texture, for
+    ``opacity`` (glTF's base colour alpha)."""
+    encoding: Literal["srgb", "linear"] | None = None
+    """How an 8/16-bit image's values are read (issue #22): ``srgb`` decoded by the sRGB curve,
+    ``linear`` c / 255 (c / 65535). Default: ``srgb`` for albedo, emission, opacity and
+    specular_reflectance, ``linear`` for metallic_roughness_texture. EXR / HDR are linear
+    whatever it says (Mitsuba's float bitmaps); an alpha channel is linear."""
+
+    @field_validator("file", mode="before")
+    @classmethod
+    def _resolve(cls, value: Any, info: ValidationInfo) -> Any:
+        return texture_file(value, info)
+
+
+class RoughnessTexture(ImageTexture):
+    """A roughness texture (issue #22, mcpt/shading/roughness_texture.py): its first channel (a grey
+    image's grey) times the material's ``roughness`` is the microfacet alpha at each hit, floored at
+    the least alpha the material takes (0.001) and at most 1."""
+
+    encoding: Literal["linear", "srgb"] = "linear"
+    """``linear``: texel c / 255 (a roughness map is data, not colour); ``srgb``: sRGB-decoded, what
+    Mitsuba 3's bitmap does without ``raw=true`` (the Mitsuba reader sets it)."""
+
+
+def texture_shorthand(value: Any) -> Any:
+    """``albedo_texture: spot.png`` is short for ``albedo_texture: {file: spot.png}``."""
+    return {"file": value} if isinstance(value, (str, Path)) else value
+
+
+def texture(value: Any, info: ValidationInfo) -> Any:
+    """A texture: a file name or ``{file, ...}`` (an image), or ``{type: checkerboard, ...}``."""
+    if value is None or isinstance(value, (ImageTexture, CheckerboardTexture)):
+        return value
+    return colour_or_texture(value, info, colours=False)
+
+
+def colour_or_texture(value: Any, info: ValidationInfo, colours: bool = True) -> Any:
+    """``specular_reflectance``: a number is a grey, a list an RGB colour, a string or a mapping an
+    image texture (or a checkerboard). Validated here, so that an error speaks of the one form
+    that was written."""
+    if colours and isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = [value] * 3
+    try:
+        if colours and isinstance(value, (list, tuple)):
+            return TypeAdapter(Albedo).validate_python(value, strict=True)
+        kind = CheckerboardTexture if is_checkerboard(value) else ImageTexture
+        return TypeAdapter(kind).validate_python(texture_shorthand(value), context=info.context)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = "".join(f"item {p}: " if isinstance(p, int) else f"{p}: " for p in err["loc"])
+        raise PydanticCustomError("colour_or_texture", "{msg}", {"msg": f"{where}{err['msg']}"}) from None
