@@ -198,7 +198,7 @@ def test_plain_material_compiles_as_before():
         assert d["MCPT_METALROUGH_SPECULAR"] == 1 and d["MCPT_MAT_TEXELS"] == 5, extra
         mt = world.materials
         i = mt.types.index("metalrough")
-        packed = mt.pack(np.zeros(len(mt.names)), texels=5).reshape(len(mt.names), 5, 4)
+        packed = mt.pack(np.zeros(len(mt.names)), texels=5, fifth=True).reshape(len(mt.names), 5, 4)
         f0, f90 = metalrough.dielectric_f0_f90(mt.ior[i], mt.specular[i], mt.specular_color[i])
         assert np.array_equal(packed[i, 4].view(np.float32), np.float32([*f0, f90]))
 

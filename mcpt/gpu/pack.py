@@ -67,7 +67,7 @@ def pack(world: World, features: Features) -> Packed:
                "materials": world.materials.pack(
                    material_light_pdf_area(world.materials.emission, world.lights.total_power),
                    texels=features.material_texels, emission_textures=features.compiled.emission_textures,
-                   spec_texel=features.compiled.spec_texel)}
+                   spec_texel=features.compiled.spec_texel, fifth=features.compiled.fifth_texel)}
     if features.bvh:
         buffers["nodes"] = world.bvh.gpu_nodes(world.tris, dense=features.bvh_dense)
     if features.nee:

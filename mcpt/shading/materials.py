@@ -194,7 +194,10 @@ class MaterialTable:
         return any(bool(self.one_sided[i]) and self.types[i] not in TWO_SIDED_TYPES for i in self.used(ids))
 
     def pack(self, light_pdf_area: np.ndarray, texels: int = 2, emission_textures: bool = False,
-             spec_texel: int = 0) -> np.ndarray:
+             spec_texel: int = 0, fifth: bool = False) -> np.ndarray:
+        """The table (texels per material, the layout above); ``fifth``: texel 4 exists (a
+        complex-Fresnel conductor's k, or a metal-rough row's F0, F90); ``spec_texel``: the first of
+        the 2 specular-weight texels, 0 for none (all three from features.Uses)."""
         m = len(self.names)
         out = np.zeros((max(m, 1), texels, 4), np.uint32)
         f32 = lambda a: np.asarray(a, np.float32).view(np.uint32)  # noqa: E731
@@ -224,9 +227,6 @@ class MaterialTable:
             fdr = [fdr_internal(self.ior[i]) if t == "plastic" else 0.0 for i, t in enumerate(self.types)]
             out[:m, 3, 3] = f32(fdr)
             self._pack_rough_plastic(out, texels)
-        # texel 4 (k, or a metal-rough row's F0, F90) exists when the table, less the 2 specular-weight
-        # texels, has 5 or 21 texels; the specular weights come after it (mcpt/gpu/features.py)
-        fifth = texels - (2 if spec_texel else 0) in (5, 21)
         if fifth:
             out[:m, 4, :3] = f32(self.k)
         if texels >= 4:  # after k: a metal-rough row's texel 4 holds its F0, F90 (metalrough.py)
