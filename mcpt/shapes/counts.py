@@ -122,12 +122,13 @@ def _header_lines(path: Path, limit: int = 1 << 16) -> list[bytes]:
 
 
 def ply_triangles(path: Path) -> int:
-    """The header's ``element face N`` (at least N triangles)."""
-    for line in _header_lines(path):
-        words = line.split()
-        if len(words) == 3 and words[0] == b"element" and words[1] == b"face":
-            return int(words[2])
-    return 0
+    """The header's ``element face N`` (at least N triangles), read by the PLY reader's own header
+    parser (mcpt/shapes/ply.py) from the file's first 64 KiB."""
+    from .ply import parse_header
+
+    with open(path, "rb") as fh:
+        header = parse_header(path, fh.read(1 << 16))
+    return next((e.count for e in header.elements if e.name == "face"), 0)
 
 
 def off_triangles(path: Path) -> int:
