@@ -274,7 +274,7 @@ bool trace_brute(Ray r, RayPre p, inout Hit h, bool any_hit) {
 
 // The closest hit nearer than h.t (any_hit: any hit, the first found), by the structure the
 // scene was compiled with.
-bool trace(Ray r, inout Hit h, bool any_hit) {
+bool trace_triangles(Ray r, inout Hit h, bool any_hit) {
     RayPre p = ray_pre(r.d);
 #if MCPT_BVH && MCPT_BVH_DENSE
     return trace_dense(r, p, h, any_hit);
@@ -285,6 +285,15 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
 #else
     return trace_brute(r, p, h, any_hit);
 #endif
+}
+
+// ... among the triangles, then the analytic spheres (sphere.glsl), which need h.t as found.
+bool trace(Ray r, inout Hit h, bool any_hit) {
+    bool found = trace_triangles(r, h, any_hit);
+#if MCPT_SPHERES
+    if (!(any_hit && found)) found = trace_spheres(r, any_hit, h) || found;
+#endif
+    return found;
 }
 
 #if MCPT_COUNTERS

@@ -5,13 +5,30 @@ layout(binding = 2) uniform usamplerBuffer u_tris;
 uniform int u_tri_count;
 
 vec3 tri_vertex(int tri, int k) { return uintBitsToFloat(texelFetch(u_tris, 3 * tri + k).xyz); }
-int tri_material(int tri) { return int(texelFetch(u_tris, 3 * tri).w); }
 
 struct Hit {
     float t;      // ray parameter of the closest hit so far (INF: none)
-    int tri;      // triangle index (-1: none)
-    vec2 bary;    // barycentrics of v1 and v2
+    int tri;      // triangle index (-1: none; SPHERE_BASE + k: analytic sphere k, sphere.glsl)
+    vec2 bary;    // barycentrics of v1 and v2 (a sphere: its normal, octahedral)
 };
+
+#ifndef MCPT_SPHERES
+#define MCPT_SPHERES 0
+#endif
+#if MCPT_SPHERES
+#include "sphere.glsl"
+#define HIT_IS_SPHERE(tri) hit_is_sphere(tri)
+#else
+#define HIT_IS_SPHERE(tri) false
+#endif
+
+// The material of triangle (or sphere) tri.
+int tri_material(int tri) {
+#if MCPT_SPHERES
+    if (hit_is_sphere(tri)) return sphere_material(tri);
+#endif
+    return int(texelFetch(u_tris, 3 * tri).w);
+}
 
 // Per-ray constants of the watertight test (Woop, Benthin & Wald 2013, JCGT 2(1)): the
 // permutation (kx, ky, kz) that makes the ray's largest direction component z, and the shear
@@ -76,6 +93,9 @@ bool intersect_tri(Ray r, RayPre p, int tri, float tmax, out float t, out vec2 b
 }
 
 vec3 tri_point(int tri, vec2 bary) {
+#if MCPT_SPHERES
+    if (hit_is_sphere(tri)) return sphere_point(Hit(0.0, tri, bary));
+#endif
     vec3 v0 = tri_vertex(tri, 0);
     return v0 + bary.x * (tri_vertex(tri, 1) - v0) + bary.y * (tri_vertex(tri, 2) - v0);
 }
@@ -84,4 +104,12 @@ vec3 tri_point(int tri, vec2 bary) {
 vec3 tri_normal_raw(int tri) {
     vec3 v0 = tri_vertex(tri, 0);
     return cross(tri_vertex(tri, 1) - v0, tri_vertex(tri, 2) - v0);
+}
+
+// The unnormalised geometric normal at hit h, whose side is the front.
+vec3 hit_normal_raw(Hit h) {
+#if MCPT_SPHERES
+    if (hit_is_sphere(h.tri)) return sphere_front_normal(h);
+#endif
+    return tri_normal_raw(h.tri);
 }

@@ -74,7 +74,7 @@ bool medium_vertex(inout Path P, MediumCoeffs c, vec3 x, float t, float t_hit) {
 // else the scene's (id 0).
 int segment_medium(bool found, Hit h, vec3 d) {
 #if MCPT_MAT_DIELECTRIC
-    if (found && dot(tri_normal_raw(h.tri), d) > 0.0) {
+    if (found && dot(hit_normal_raw(h), d) > 0.0) {
         int mat = tri_material(h.tri);
         if (int(texelFetch(u_materials, MCPT_MAT_TEXELS * mat).w) == MAT_DIELECTRIC) {
 #if MCPT_MEDIUM_INTERIOR

@@ -36,7 +36,7 @@ vec3 shading_normal_raw(int tri, vec2 bary) {
 vec3 shading_normal(Material m, Hit h, vec3 ng, float cos_o, vec3 wo) {
     vec3 ns = ng;
 #if MCPT_SMOOTH_NORMALS
-    if ((m.flags & MAT_FLAG_SMOOTH) != 0u) {
+    if ((m.flags & MAT_FLAG_SMOOTH) != 0u && !HIT_IS_SPHERE(h.tri)) {  // a sphere's ng is exact
         vec3 sn = normalize(shading_normal_raw(h.tri, h.bary));
         sn = cos_o < 0.0 ? sn : -sn;
         if (dot(sn, wo) > 0.0) ns = sn;

@@ -86,7 +86,7 @@ bool path_step(inout Path P) {
     }
     int k = P.k;
     Material m = material(tri_material(h.tri));
-    vec3 n = normalize(tri_normal_raw(h.tri));
+    vec3 n = normalize(hit_normal_raw(h));
     float cos_o = dot(n, ray.d);  // < 0: the ray arrives at the front side
     material_absorb(P.beta, m, cos_o, h.t);  // Beer-Lambert, if the segment ran inside glass
     emitted_radiance(P, m, h, cos_o);        // lights.glsl

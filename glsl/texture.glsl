@@ -13,6 +13,9 @@ layout(binding = 9) uniform usamplerBuffer u_textures;  // headers, then 4 pixel
 #include "checkerboard.glsl"
 
 vec2 tri_uv(int tri, vec2 bary) {
+#if MCPT_SPHERES
+    if (hit_is_sphere(tri)) return sphere_uv(Hit(0.0, tri, bary));
+#endif
     vec4 a = uintBitsToFloat(texelFetch(u_uvs, 2 * tri));
     vec2 c = uintBitsToFloat(texelFetch(u_uvs, 2 * tri + 1).xy);
     return (1.0 - bary.x - bary.y) * a.xy + bary.x * a.zw + bary.y * c;

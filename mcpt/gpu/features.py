@@ -189,6 +189,7 @@ class Features:
             "MCPT_TRI_FIRST": u.tri_first if written else 0,
             "MCPT_BVH_START": u.bvh_start if written and u.bvh else 0,
             "MCPT_VERT_COUNT": len(u.vert_addr) if written else 0,
+            "MCPT_SPHERES": u.spheres,
             "MCPT_MAT_DIFFUSE": b(u.diffuse),
             "MCPT_MAT_CONDUCTOR": b(u.conductor),
             "MCPT_MICROFACET": b(u.microfacet),
@@ -282,7 +283,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
 def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     """The features of a built world (mcpt/shapes/world.py): what its used materials need;
     ``flags``: :func:`derive`'s options, limits and switches by name (e.g. ``loop_limit=``)."""
-    mt, ids = world.materials, world.tri_material
+    mt, ids = world.materials, world.material_ids
     used = {mt.types[i] for i in mt.used(ids)}
     f = derive(
         bounces=world.scene.render.bounces if bounces is None else bounces,
@@ -308,4 +309,6 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         f = f.replace(float_textures=True)
     if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
         f = f.replace(camera_moves=True)
+    if getattr(world, "n_spheres", 0):
+        f = f.replace(spheres=world.n_spheres)
     return f

@@ -6,6 +6,7 @@ reads them. Each array's layout is documented by its host module, named after th
 reads it:
 
     tris       mcpt/shapes/geometry.py   <-> glsl/geometry.glsl
+    spheres    mcpt/shapes/sphere.py     <-> glsl/sphere.glsl (analytic spheres)
     nodes      mcpt/shapes/bvh.py        <-> glsl/bvh.glsl
     lights     mcpt/shading/lights.py    <-> glsl/lights.glsl (+ light_punctual)
     env_texels, env_alias  mcpt/shading/envmap.py <-> glsl/envmap.glsl (environment maps)
@@ -47,7 +48,8 @@ from .features import Features
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
          "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles"),
-         "tangents": (1, "triangles")}
+         "tangents": (1, "triangles"),
+         "spheres": (4, "spheres")}
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,8 @@ def pack(world: World, features: Features) -> Packed:
                    material_light_pdf_area(world.materials.emission, world.lights.total_power),
                    texels=features.material_texels, emission_textures=features.compiled.emission_textures,
                    spec_texel=features.compiled.spec_texel, fifth=features.compiled.fifth_texel)}
+    if world.n_spheres:
+        buffers["spheres"] = world.spheres
     if features.bvh:
         buffers["nodes"] = world.bvh.gpu_nodes(world.tris, dense=features.bvh_dense)
     if features.nee:

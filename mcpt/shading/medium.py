@@ -36,7 +36,7 @@ class MediumError(McptError, ValueError):
 def interior_media(world) -> list[tuple[int, str, object]]:
     """(material table row, material name, Medium) of every used dielectric with an interior."""
     mats, names = world.scene.materials, world.materials.names
-    used = set(world.materials.used(world.tri_material))
+    used = set(world.materials.used(world.material_ids))
     return [(i, n, mats[n].interior) for i, n in enumerate(names)
             if i in used and n in mats and mats[n].type == "dielectric" and mats[n].interior is not None]
 

@@ -34,7 +34,9 @@ from .bvh import BVH
 from .bvh_build import build_bvh
 from .dedup import first_of_repeated_corners
 from .mesh import Mesh, MeshError, assemble, read_geometry
+from .raw_mesh import MeshMaterial
 from .sources import flipped, source_of
+from .sphere import MAX_SPHERES, Sphere, pack_spheres, placed_sphere, sphere_bounds
 
 log = logging.getLogger("mcpt")
 
@@ -56,10 +58,23 @@ class World:
     uvs: np.ndarray | None = None       # (F, 3, 2) float32 corner UVs (textured materials)
     textures: list = field(default_factory=list)  # [Texture], indexed by MaterialTable.texture
     tangents: np.ndarray | None = None  # (F, 3, 4) corner tangents + handedness (normal-mapped meshes)
+    spheres: np.ndarray | None = None   # (4 S, 4) uint32 analytic spheres (mcpt/shapes/sphere.py)
+    sphere_material: np.ndarray | None = None  # (S,) int32 material id of each
 
     @property
     def n_triangles(self) -> int:
         return int(self.tris.shape[0])
+
+    @property
+    def n_spheres(self) -> int:
+        return 0 if self.sphere_material is None else int(self.sphere_material.shape[0])
+
+    @property
+    def material_ids(self) -> np.ndarray:
+        """The material id of every surface: each triangle's, then each analytic sphere's."""
+        if not self.n_spheres:
+            return self.tri_material
+        return np.concatenate([self.tri_material, self.sphere_material]).astype(np.int32)
 
 
 @dataclass
@@ -89,7 +104,16 @@ def load_world(scene: Scene) -> World:
     the per-triangle data into its leaf order, derive the lights."""
     t0 = time.perf_counter()
     resolver = MaterialResolver(scene)
-    parts = [_load_part(scene, mi, resolver) for mi in range(len(scene.meshes))]
+    parts, spheres = [], []
+    for mi in range(len(scene.meshes)):
+        ball = _analytic_sphere(scene, mi, resolver) if len(spheres) < MAX_SPHERES else None
+        if ball is not None:
+            spheres.append(ball)
+        else:
+            parts.append(_load_part(scene, mi, resolver))
+    if spheres and sum(len(p.tris) for p in parts) == 0:  # the triangle buffers are never empty
+        parts += [_load_part(scene, mi, resolver) for mi, _ in spheres]
+        spheres = []
     if sum(len(p.tris) for p in parts) == 0:
         raise LoadError(f"{scene.source_path or 'scene'}: the scene has no triangles")
     t_load = time.perf_counter() - t0
@@ -102,23 +126,48 @@ def load_world(scene: Scene) -> World:
     powers = None
     if any(table.emission_texture >= 0):  # issue #22: textured emitters picked by their real power
         powers = triangle_powers(geometry.areas(tris), tri_mat, uvs, table, resolver.textures)
-    lights = _lights(scene, tris, table.emission[tri_mat], powers)
+    origin = np.asarray(scene.origin, np.float64)
+    balls = [b for _, (b, _) in spheres]
+    lights = _lights(scene, tris, table.emission[tri_mat], powers,
+                     sphere_bounds(balls, origin) if balls else None)
     if lights.entries == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")
     stats = {"triangles": int(tris.shape[0]),
              "dropped_degenerate": int(sum(p.dropped_degenerate for p in parts)),
              "dropped_duplicate": int(sum(p.dropped_duplicate for p in parts) + repeated),
-             "materials": len(table.names), "emissive_triangles": lights.count,
+             "spheres": len(spheres), "materials": len(table.names), "emissive_triangles": lights.count,
              "textures": len(resolver.textures), "load_seconds": t_load, "bvh": bvh.stats()}
+    sphere_mat = np.array([m for _, (_, m) in spheres], np.int32)
     return World(scene, tris, tri_mat, table, lights, bvh, stats, normals, uvs, resolver.textures,
-                 _corner_tangents(parts, keep, bvh.order))
+                 _corner_tangents(parts, keep, bvh.order),
+                 pack_spheres(balls, sphere_mat, origin) if balls else None, sphere_mat if balls else None)
 
 
-def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray, powers=None) -> Lights:
+def _analytic_sphere(scene: Scene, mi: int, resolver: MaterialResolver) -> tuple[int, tuple[Sphere, int]] | None:
+    """(mesh index, (sphere, material id)) when mesh ``mi`` is a ``shape: sphere`` that renders as an
+    analytic sphere (mcpt/shapes/sphere.py says when), else None: the entry is tessellated."""
+    spec = scene.meshes[mi]
+    if spec.shape != "sphere":
+        return None
+    ball = placed_sphere(spec.transform.matrix(), spec.flip_normals)
+    if ball is None:
+        return None
+    (mid,) = resolver.mesh_ids(mi, spec, [MeshMaterial("")])
+    row = resolver.rows[int(mid)]
+    if (any(row.emission) or row.emission_texture is not None or row.normal_map is not None
+            or row.opacity is not None):
+        return None
+    return mi, (ball, int(mid))
+
+
+def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray, powers=None, balls=None) -> Lights:
     """Emissive triangles, the scene's punctual lights and its environment (issue #20), in one
-    table; positions relative to the camera like the triangles."""
+    table; positions relative to the camera like the triangles (``balls``: the box around the
+    analytic spheres, which the scene's bounding radius includes)."""
     lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
+    if balls is not None:
+        lo, hi = np.minimum(lo, balls[0]), np.maximum(hi, balls[1])
     radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
     origin = np.asarray(scene.origin, np.float64)
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
