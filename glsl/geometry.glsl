@@ -93,9 +93,6 @@ bool intersect_tri(Ray r, RayPre p, int tri, float tmax, out float t, out vec2 b
 }
 
 vec3 tri_point(int tri, vec2 bary) {
-#if MCPT_SPHERES
-    if (hit_is_sphere(tri)) return sphere_point(Hit(0.0, tri, bary));
-#endif
     vec3 v0 = tri_vertex(tri, 0);
     return v0 + bary.x * (tri_vertex(tri, 1) - v0) + bary.y * (tri_vertex(tri, 2) - v0);
 }
@@ -112,4 +109,12 @@ vec3 hit_normal_raw(Hit h) {
     if (hit_is_sphere(h.tri)) return sphere_front_normal(h);
 #endif
     return tri_normal_raw(h.tri);
+}
+
+// The point of hit h on ray r.
+vec3 hit_point(Hit h, Ray r) {
+#if MCPT_SPHERES
+    if (hit_is_sphere(h.tri)) return sphere_point(h, r);
+#endif
+    return tri_point(h.tri, h.bary);
 }

@@ -111,7 +111,7 @@ bool path_step(inout Path P) {
 #endif
     material_side(m, cos_o < 0.0);                  // materials.glsl
     if (material_black(m)) return false;  // pure emitter
-    vec3 x = tri_point(h.tri, h.bary);
+    vec3 x = hit_point(h, ray);
     vec3 xo = offset_ray(x, ng);
     int dim = DIM_BOUNCE(k);
 #if MCPT_NEE

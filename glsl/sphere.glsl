@@ -1,15 +1,28 @@
 // Analytic spheres (host side: mcpt/shapes/sphere.py pack_spheres, which documents the layout):
-// MCPT_SPHERES spheres, 4 RGBA32UI texels each, tested by every ray after the triangles. A sphere
+// MCPT_SPHERES spheres, 5 RGBA32UI texels each, tested by every ray after the triangles. A sphere
 // hit is Hit.tri = SPHERE_BASE + k and carries its outward unit normal, octahedral-encoded in
-// floats (Cigolle et al. 2014), in Hit.bary: the point, uv and frame follow from it exactly.
+// floats (Cigolle et al. 2014), in Hit.bary: the uv and frame follow from it.
+//
+// The test runs in double precision, as Mitsuba 3's sphere does on the CPU (src/shapes/
+// sphere.cpp, Double = Float64 off CUDA): in float32 |f|^2 - r^2 loses all its digits when the
+// radius is large against the distance to the surface (a planet of radius 6.4e6 seen from two
+// units above it: ulp(r^2) ~ 4e6 against 2 r h ~ 2.6e7), and the centre itself, relative to the
+// camera, is off by up to half a unit (tests/test_sphere.py furnaces). The centre is stored as
+// doubles; the hit point is projected back onto the sphere in double (sphere_point).
 // Included by geometry.glsl only when the scene has one (MCPT_SPHERES > 0).
 layout(binding = 15) uniform usamplerBuffer u_spheres;
 
 const int SPHERE_BASE = 0x40000000;  // above every triangle index (2^28 texels at most)
 
 bool hit_is_sphere(int tri) { return tri >= SPHERE_BASE; }
-vec4 sphere_texel(int tri, int k) { return uintBitsToFloat(texelFetch(u_spheres, 4 * (tri - SPHERE_BASE) + k)); }
-int sphere_material(int tri) { return int(texelFetch(u_spheres, 4 * (tri - SPHERE_BASE) + 1).w); }
+uvec4 sphere_texel(int tri, int k) { return texelFetch(u_spheres, 5 * (tri - SPHERE_BASE) + k); }
+int sphere_material(int tri) { return int(sphere_texel(tri, 1).w); }
+
+// Centre (double) and radius (float, widened) of sphere k.
+dvec4 sphere_shape(int k) {
+    uvec4 a = texelFetch(u_spheres, 5 * k), b = texelFetch(u_spheres, 5 * k + 1);
+    return dvec4(packDouble2x32(a.xy), packDouble2x32(a.zw), packDouble2x32(b.xy), double(uintBitsToFloat(b.z)));
+}
 
 vec2 sphere_oct_encode(vec3 n) {
     vec2 p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
@@ -29,45 +42,50 @@ vec3 sphere_oct_decode(vec2 p) {
 vec3 sphere_normal(Hit h) { return sphere_oct_decode(h.bary); }
 
 // The geometric normal whose side is the front: outward, inward where the normals are flipped.
-vec3 sphere_front_normal(Hit h) { return sphere_normal(h) * sphere_texel(h.tri, 2).w; }
+vec3 sphere_front_normal(Hit h) { return sphere_normal(h) * uintBitsToFloat(sphere_texel(h.tri, 2).w); }
 
-// The hit point, on the sphere to float precision (centre + radius x normal): a better origin
-// for the next ray than o + t d, whose error grows with t.
-vec3 sphere_point(Hit h) {
-    vec4 c = sphere_texel(h.tri, 0);
-    return c.xyz + c.w * sphere_normal(h);
+// The hit point of ray r: o + t d projected back onto the sphere, in double, so that it lies on
+// the surface to the rounding of its own coordinates whatever the rounding of t (a ray from far
+// away would otherwise land inside by more than offset_ray's margin and hit the sphere again).
+vec3 sphere_point(Hit h, Ray r) {
+    dvec4 s = sphere_shape(h.tri - SPHERE_BASE);
+    dvec3 v = dvec3(r.o) + double(h.t) * dvec3(r.d) - s.xyz;
+    return vec3(s.xyz + s.w * v / sqrt(dot(v, v)));
 }
 
 // Mitsuba 3's sphere uv (src/shapes/sphere.cpp): (phi / 2 pi, theta / pi) of the normal in the
 // sphere's own frame, phi from +x towards +y, theta from +z; mcpt's v points up (1 - v).
 vec2 sphere_uv(Hit h) {
     vec3 n = sphere_normal(h);
-    vec3 l = vec3(dot(sphere_texel(h.tri, 1).xyz, n), dot(sphere_texel(h.tri, 2).xyz, n),
-                  dot(sphere_texel(h.tri, 3).xyz, n));
+    vec3 l = vec3(dot(uintBitsToFloat(sphere_texel(h.tri, 2).xyz), n),
+                  dot(uintBitsToFloat(sphere_texel(h.tri, 3).xyz), n),
+                  dot(uintBitsToFloat(sphere_texel(h.tri, 4).xyz), n));
     float u = atan(l.y, l.x) * (0.5 / PI);
     return vec2(u < 0.0 ? u + 1.0 : u, 1.0 - acos(clamp(l.z, -1.0, 1.0)) * (1.0 / PI));
 }
 
 // Ray / sphere with the discriminant of Haines et al., "Precision Improvements for Ray/Sphere
 // Intersection" (Ray Tracing Gems ch. 7, 2019): r^2 - |f - (f.d / d.d) d|^2 instead of b^2 - ac,
-// which cancels catastrophically for small or distant spheres, and the near root as c / q.
-// A ray leaving a sphere's surface (origin offset by offset_ray, common.glsl) finds that surface
-// again at |t| of the order of the rounding of |f|^2 - r^2; roots below 1e-6 r are taken for it
-// and skipped (the ray's other root is then the true one: the far side for a ray going in).
-bool sphere_hit(Ray r, vec4 s, float tmax, out float t) {
-    vec3 f = r.o - s.xyz;
-    float a = dot(r.d, r.d);
-    float b = -dot(f, r.d);
-    vec3 l = f + (b / a) * r.d;
-    float dl = length(l);
-    float disc = a * (s.w - dl) * (s.w + dl);
-    float c = dot(f, f) - s.w * s.w;
-    float q = b + (b >= 0.0 ? 1.0 : -1.0) * sqrt(max(disc, 0.0));
-    float t0 = c / q, t1 = q / a;
-    float tn = min(t0, t1), tf = max(t0, t1);
-    float eps = 1e-6 * s.w;
-    t = tn > eps ? tn : tf;
-    return disc >= 0.0 && t > eps && t < tmax;  // also rejects NaN (q = 0: a ray through the centre's tangent)
+// and the near root as c / q, in double (above). A ray leaving a sphere's surface (origin
+// offset by offset_ray, common.glsl) finds that surface again at |t| of the order of the double
+// rounding of |f|^2 - r^2 (~1e-16 r / cos); roots below 1e-9 r are taken for it and skipped (the
+// ray's other root is then the true one: the far side for a ray going in).
+bool sphere_hit(Ray r, dvec4 s, float tmax, out float t) {
+    dvec3 d = dvec3(r.d);
+    dvec3 f = dvec3(r.o) - s.xyz;
+    double a = dot(d, d);
+    double b = -dot(f, d);
+    dvec3 l = f + (b / a) * d;
+    double dl = sqrt(dot(l, l));
+    double disc = a * (s.w - dl) * (s.w + dl);
+    double c = dot(f, f) - s.w * s.w;
+    double q = b + (b >= 0.0 ? 1.0 : -1.0) * sqrt(max(disc, 0.0));
+    double t0 = c / q, t1 = q / a;
+    double tn = min(t0, t1), tf = max(t0, t1);
+    double eps = 1e-9 * s.w;
+    double tt = tn > eps ? tn : tf;
+    t = float(tt);
+    return disc >= 0.0 && tt > eps && t < tmax;  // q = 0 (a = 0 or a tangent through f): no hit
 }
 
 // The closest sphere nearer than h.t (any_hit: any one). The loop has a constant bound: it is
@@ -75,9 +93,8 @@ bool sphere_hit(Ray r, vec4 s, float tmax, out float t) {
 bool trace_spheres(Ray r, bool any_hit, inout Hit h) {
     int hit = -1;
     for (int k = 0; k < MCPT_SPHERES; ++k) {
-        vec4 s = uintBitsToFloat(texelFetch(u_spheres, 4 * k));
         float t;
-        if (sphere_hit(r, s, h.t, t)) {
+        if (sphere_hit(r, sphere_shape(k), h.t, t)) {
             h.t = t;
             hit = k;
             if (any_hit) break;
@@ -85,7 +102,7 @@ bool trace_spheres(Ray r, bool any_hit, inout Hit h) {
     }
     if (hit < 0) return false;
     h.tri = SPHERE_BASE + hit;
-    vec4 s = uintBitsToFloat(texelFetch(u_spheres, 4 * hit));
-    h.bary = sphere_oct_encode(normalize(r.o + h.t * r.d - s.xyz));
+    dvec4 s = sphere_shape(hit);
+    h.bary = sphere_oct_encode(vec3(normalize(dvec3(r.o) + double(h.t) * dvec3(r.d) - s.xyz)));
     return true;
 }

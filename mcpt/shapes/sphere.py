@@ -15,11 +15,13 @@ tessellated one would and more cheaply:
 * at most :data:`MAX_SPHERES` per scene (each costs every ray a test; the rest stay tessellated),
   and the scene keeps at least one triangle (the triangle buffers are never empty).
 
-Layout (glsl/sphere.glsl reads it): four RGBA32UI texels per sphere, float32 bits,
-    (centre.xyz relative to the camera, radius), (rotation column 0, material id),
-    (rotation column 1, +1 or -1: -1 when the normals are flipped), (rotation column 2, 0)
-where the rotation is the placement's linear part divided by the radius, so that the sphere's
-own coordinates of a world direction n are (col0 . n, col1 . n, col2 . n) -- Mitsuba's uv frame.
+Layout (glsl/sphere.glsl reads it): five RGBA32UI texels per sphere,
+    (centre.x, centre.y as float64 bits), (centre.z as float64 bits, radius as float32 bits, material id),
+    (rotation column 0, +1.0 or -1.0: -1 when the normals are flipped), (column 1, 0), (column 2, 0)
+with the centre relative to the camera in float64 (the shader intersects in double precision:
+glsl/sphere.glsl says why) and the rotation the placement's linear part divided by the radius, so
+that the sphere's own coordinates of a world direction n are (col0 . n, col1 . n, col2 . n) --
+Mitsuba's uv frame.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import numpy as np
 #: Most analytic spheres a scene compiles (each ray tests every one: glsl/sphere.glsl).
 MAX_SPHERES = 16
 #: Texels per sphere in the packed buffer.
-TEXELS = 4
+TEXELS = 5
 
 
 @dataclass(frozen=True)
@@ -62,16 +64,18 @@ def placed_sphere(matrix: np.ndarray, flip: bool = False) -> Sphere | None:
 
 def pack_spheres(spheres: list[Sphere], materials: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """(TEXELS * S, 4) uint32 texels of ``spheres`` (layout: module doc), centres rebased to
-    ``origin`` in float64 before rounding to float32 (issue #6: precision far from the origin)."""
-    out = np.zeros((len(spheres), TEXELS, 4), np.float32)
+    ``origin`` in float64 and kept in float64 (issue #6: precision far from the origin)."""
+    out = np.zeros((len(spheres), TEXELS, 4), np.uint32)
     for i, s in enumerate(spheres):
-        out[i, 0, :3] = np.asarray(s.center, np.float64) - np.asarray(origin, np.float64)
-        out[i, 0, 3] = s.radius
-        out[i, 1:, :3] = s.rotation.T
-        out[i, 2, 3] = -1.0 if s.flip else 1.0
-    bits = out.view(np.uint32)
-    bits[:, 1, 3] = np.asarray(materials, np.uint32)
-    return bits.reshape(-1, 4)
+        centre = np.asarray(s.center, np.float64) - np.asarray(origin, np.float64)
+        out[i, :2].reshape(-1)[:6] = centre.view(np.uint32)  # (lo, hi) words: GLSL packDouble2x32
+        out[i, 1, 2] = np.float32(s.radius).view(np.uint32)
+        out[i, 1, 3] = int(materials[i])
+        cols = np.zeros((3, 4), np.float32)
+        cols[:, :3] = s.rotation.T
+        cols[0, 3] = -1.0 if s.flip else 1.0
+        out[i, 2:] = cols.view(np.uint32)
+    return out.reshape(-1, 4)
 
 
 def sphere_bounds(spheres: list[Sphere], origin: np.ndarray) -> np.ndarray:
