@@ -285,12 +285,12 @@ def test_reads_exr_hdr_and_ldr(tmp_path, caplog):
     assert [r.getMessage() for r in caplog.records] == [f"{tmp_path / 'a.png'}: {LDR_NOTE}"]
 
 
-def _patched_exr(path):
-    """A valid 4 x 2 EXR whose header then claims 100000 x 50000 pixels."""
+def _patched_exr(path, width=100000, height=50000):
+    """A valid 4 x 2 EXR whose header then claims ``width`` x ``height`` pixels."""
     write_exr(path, np.ones((2, 4, 3), np.float32))
     b = bytearray(path.read_bytes())
     k = b.find(b"dataWindow\x00box2i\x00") + len(b"dataWindow\x00box2i\x00") + 4
-    b[k:k + 16] = struct.pack("<4i", 0, 0, 99999, 49999)
+    b[k:k + 16] = struct.pack("<4i", 0, 0, width - 1, height - 1)
     path.write_bytes(bytes(b))
 
 
@@ -331,3 +331,16 @@ def test_bad_arguments_are_refused():
         build_envmap(-img[:1, :1], name="x")
     mirror = build_envmap(img, to_world=2.0 * np.diag([-1.0, 1.0, 1.0]))  # a mirror, scaled: fine
     np.testing.assert_allclose(mirror.to_world, np.diag([-1.0, 1.0, 1.0]))
+
+
+def test_the_reader_itself_preflights_memory_from_the_header(tmp_path, monkeypatch):
+    """read_envmap / load_envmap (the Python API, the Mitsuba XML reader) refuse a map that the
+    memory cannot hold before decoding it: the .exr header claims 4096 x 2048, its pixels are 4 x 2."""
+    from mcpt.gpu import host_memory
+    from mcpt.shading.envmap_file import ENV_BYTES_PER_TEXEL
+
+    _patched_exr(tmp_path / "m.exr", 4096, 2048)
+    monkeypatch.setattr(host_memory, "available_bytes", lambda: 4096 * 2048 * ENV_BYTES_PER_TEXEL - 1)
+    with pytest.raises(EnvMapError, match=r"m\.exr: 4096 x 2048 needs about 0\.9 GiB to load, more than the "
+                                          r"0\.9 GiB of memory available"):
+        load_envmap(tmp_path / "m.exr")

@@ -47,7 +47,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .alias import build_alias, realised
-from .envmap_file import MAX_ENV_TEXELS, EnvMapError, check_texels, read_envmap, read_envmap_image
+from .envmap_file import (
+    MAX_ENV_TEXELS,
+    MIN_HEIGHT,
+    MIN_WIDTH,
+    EnvMapError,
+    check_texels,
+    read_envmap,
+    read_envmap_image,
+)
 
 __all__ = ["MAX_ENV_TEXELS", "EnvMap", "EnvMapError", "build_envmap", "load_envmap", "read_envmap",
            "read_envmap_image"]
@@ -58,10 +66,6 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 #: The GLSL twin, included by glsl/lights.glsl under MCPT_ENVMAP (also what tells the wheel check
 #: of tests/test_package.py that it is renderer code, not a probe, before that include exists).
 GLSL_FILE = "envmap.glsl"
-
-#: Mitsuba's smallest environment map (Bitmap::pad_to(2, 3)): W >= 2, H >= 3.
-MIN_WIDTH, MIN_HEIGHT = 2, 3
-
 
 @dataclass(frozen=True, eq=False)
 class EnvMap:
