@@ -165,12 +165,13 @@ def _read_cv2(path: Path, hdr: bool) -> np.ndarray:
 
 
 def check_texels(img: np.ndarray, where: str, what: str = "an environment map", holds: str = "radiance",
-                 error: type[Exception] = EnvMapError) -> None:
+                 error: type[Exception] = EnvMapError) -> float:
     """Refuse NaN, infinite or negative texels, with their count (``where`` names the source;
-    ``what`` / ``holds`` / ``error``: a surface texture's words and error class)."""
+    ``what`` / ``holds`` / ``error``: a surface texture's words and error class); else return
+    the largest texel value."""
     lo, hi = float(img.min()), float(img.max())  # NaN propagates through min / max
     if np.isfinite(lo) and np.isfinite(hi) and lo >= 0.0:
-        return
+        return hi
     finite = np.isfinite(img).all(axis=-1)
     bad = int(img.shape[0] * img.shape[1] - np.count_nonzero(finite))
     negative = int(np.count_nonzero((np.where(finite[..., None], img, 0.0) < 0.0).any(axis=-1)))
