@@ -24,17 +24,21 @@ table, mcpt/shading/alias.py: O(1), two table reads per sample where two binary 
 ~log2(H) + log2(W) dependent reads and loop trips under llvmpipe's 8-lane masks) proportional to
 the integral of the luminance over each cell's solid angle, that is luminance x sin(theta) integrated exactly (the
 bilinear function is linear in theta along a column: weights :func:`_row_weights`). Inside the
-chosen cell the direction is uniform in (phi, cos theta). With pdf_uv(u, v) = pdf_sa 2 pi^2
-sin(theta) (pbrt-v4 sec. 12.5, Mitsuba l. 352-356), the cos-theta-uniform warp cancels the 1 / sin
-theta: the solid-angle pdf is constant in each cell, ``P(cell) / solid_angle(cell)``, finite and
-consistent at the poles (no division by sin theta anywhere).
+chosen cell the direction is *bilinear* in (fx, fz), fx the fraction in phi and fz in cos theta,
+with the luminances of the cell's four corners (pbrt-v4's SampleBilinear, sec. A.5; uniform in a
+black cell). (phi, cos theta) is uniform in solid angle (pbrt-v4 sec. 12.5: pdf_uv = pdf_sa 2 pi^2
+sin theta, Mitsuba l. 352-356), so the solid-angle pdf is ``P(cell) / solid_angle(cell)`` (stored
+per cell) times the bilinear factor B(fx, fz) / mean(corners): finite and consistent at the
+poles, no division by sin theta anywhere.
 
-Mitsuba samples the same luminance x sin(theta) with a *bilinear* density (Hierarchical2D); ours
-is its cell average, so the two pdfs differ inside a cell (by at most the luminance contrast
-between a cell's corners), never in the radiance, which is the same bilinear function. The
-estimator stays unbiased because a cell's probability is positive whenever the radiance is
-positive anywhere in it (some corner is positive, and its weight in the integral is positive),
-and env_pdf returns the density env_sample actually uses. P(cell) is computed from the float32
+Mitsuba samples the same luminance x sin(theta) with a bilinear density in (u, v) (Hierarchical2D);
+ours is bilinear in (phi, cos theta) and the radiance bilinear in (phi, theta), a small difference
+in a band of pi / (H - 1); the per-cell constant density this replaced had 1.55x Mitsuba's relMSE
+at 64 spp on bench/scenes-xml/lights-envmap-diffuse.xml, the bilinear one 0.71x (issue #20;
+``python -m mcpt.bench.envmap_peer``). The estimator stays unbiased because the pdf is positive
+wherever the radiance is (a cell's probability is positive when a corner is, and the bilinear
+factor vanishes only where corners of zero luminance, hence zero radiance, meet), and env_pdf
+returns the density env_sample actually uses. P(cell) is computed from the float32
 alias tables the shader reads (alias.realised), so a cell that float32 rounding makes unreachable
 has pdf 0 (BSDF sampling then finds it alone, with MIS weight 1) instead of a pdf no sample
 realises.
@@ -160,10 +164,19 @@ class EnvMap:
         bottom = t[j + 1, i] * (1 - fx) + t[j + 1, i1] * fx
         return top * (1 - fy) + bottom * fy
 
+    def _corners(self, i, i1, j) -> np.ndarray:
+        """(N, 4) luminances of cells' corners (v00, v10, v01, v11), divided by the largest
+        (glsl/envmap.glsl env_corner_lum)."""
+        t = self.texels
+        v = np.stack([t[j, i], t[j, i1], t[j + 1, i], t[j + 1, i1]], axis=1).astype(np.float64) @ LUMINANCE
+        m = v.max(axis=1, keepdims=True)
+        return v / np.where(m > 0.0, m, 1.0)
+
     def pdf(self, dirs: np.ndarray) -> np.ndarray:
         """(N,) solid-angle density (1/sr) of :meth:`sample` at world directions ``dirs``."""
-        i, _, j, _, _ = self._cells(dirs)
-        return self.cell_pdf[j, i].astype(np.float64)
+        i, i1, j, fx, fy = self._cells(dirs)
+        fz = _cos_fraction(j, self.height - 1, fy)
+        return self.cell_pdf[j, i].astype(np.float64) * _bilinear_pdf(fx, fz, self._corners(i, i1, j))
 
     def sample(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World directions (N, 3) and their pdfs (N,) for uniform numbers ``u`` (N, 2) in
@@ -173,8 +186,11 @@ class EnvMap:
         w, hc = self.width, self.height - 1
         j, tv = _alias_pick(u[:, 1], self.row_q, self.row_alias)
         i, tu = _alias_pick(u[:, 0], self.col_q[j], self.col_alias[j])
-        phi = (i + 0.5 + tu) * (2.0 * np.pi / w)
-        cos_t, sin_t = _band_point(j, hc, tv)
+        v = self._corners(i, np.where(i + 1 >= w, 0, i + 1), j)
+        fz = _sample_linear(tv, v[:, 0] + v[:, 1], v[:, 2] + v[:, 3])
+        fx = _sample_linear(tu, v[:, 0] + (v[:, 2] - v[:, 0]) * fz, v[:, 1] + (v[:, 3] - v[:, 1]) * fz)
+        phi = (i + 0.5 + fx) * (2.0 * np.pi / w)
+        cos_t, sin_t = _band_point(j, hc, fz)
         local = np.stack([np.sin(phi) * sin_t, cos_t, -np.cos(phi) * sin_t], axis=1)
         dirs = local @ self.to_world.T
         return dirs, self.pdf(dirs)
@@ -194,6 +210,31 @@ def _alias_pick(u: np.ndarray, q: np.ndarray, alias: np.ndarray) -> tuple[np.nda
     own = f < qb
     t = np.where(own, f / np.where(own, qb, 1.0), (f - qb) / np.where(own, 1.0, 1.0 - qb))
     return np.where(own, b, ab), np.clip(t.astype(np.float64), 0.0, 1.0)
+
+
+def _sample_linear(u: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """pbrt-v4 SampleLinear (glsl/envmap.glsl env_sample_linear): x in [0, 1) with density
+    proportional to (1 - x) a + x b, a, b >= 0; uniform where a == b."""
+    den = a + np.sqrt(a * a + (b * b - a * a) * u)
+    x = np.where(den > 0.0, u * (a + b) / np.where(den > 0.0, den, 1.0), 0.0)
+    return np.where(a == b, u, np.minimum(x, np.nextafter(1.0, 0.0)))
+
+
+def _bilinear_pdf(fx: np.ndarray, fz: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The bilinear warp's density at (fx, fz) relative to uniform: B / mean of the corners v
+    (N, 4); 1 for a black cell (glsl/envmap.glsl env_bilinear_pdf)."""
+    s = v.sum(axis=1)
+    top = v[:, 0] + (v[:, 1] - v[:, 0]) * fx
+    bottom = v[:, 2] + (v[:, 3] - v[:, 2]) * fx
+    return np.where(s > 0.0, 4.0 * (top + (bottom - top) * fz) / np.where(s > 0.0, s, 1.0), 1.0)
+
+
+def _cos_fraction(j: np.ndarray, hc: int, fy: np.ndarray) -> np.ndarray:
+    """Fraction in cos theta across row j's band of the direction at fraction fy in theta, by
+    cos a - cos b = 2 sin((a + b) / 2) sin((b - a) / 2) (glsl/envmap.glsl env_cos_fraction)."""
+    dt = np.pi / hc
+    tj = j * dt
+    return np.sin(tj + 0.5 * fy * dt) * np.sin(0.5 * fy * dt) / (np.sin(tj + 0.5 * dt) * np.sin(0.5 * dt))
 
 
 def _band_point(j: np.ndarray, hc: int, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
