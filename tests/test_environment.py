@@ -178,7 +178,7 @@ environment: {env}
 
 def test_a_map_larger_than_the_memory_is_refused_from_its_header(tmp_path, monkeypatch):
     """Issue #20 "absurdly large (preflight against memory)": an 8192 x 4096 map (2^25 texels,
-    within the texel cap) needs ~3.8 GiB through the build; with 1 GiB available it is one located
+    within the texel cap) needs ~2.5 GiB through the build; with 1 GiB available it is one located
     line, exit 2, before anything is decoded (the file holds no pixel: a decoder would fail)."""
     from mcpt.gpu import host_memory
 
@@ -186,7 +186,7 @@ def test_a_map_larger_than_the_memory_is_refused_from_its_header(tmp_path, monke
     monkeypatch.setattr(host_memory, "available_bytes", lambda: 2**30)
     code, lines, written = _cli_line(tmp_path, "{file: big.hdr}")
     assert code == 2 and len(lines) == 1 and not written, lines
-    assert re.search(r"s\.yaml:8: environment\.file: .*big\.hdr: 8192 x 4096 needs about 3\.8 GiB to load, "
+    assert re.search(r"s\.yaml:8: environment\.file: .*big\.hdr: 8192 x 4096 needs about 2\.5 GiB to load, "
                      r"more than the 1\.0 GiB of memory available", lines[0]), lines[0]
 
 

@@ -38,11 +38,11 @@ log = logging.getLogger("mcpt")
 MAX_ENV_TEXELS = 1 << 26
 
 #: Peak host bytes per texel of an environment map through ``mcpt render`` (decoded, scaled,
-#: its luminance, weights and alias tables in float64, the packed buffers and the driver's copy of
-#: them). Measured (``/usr/bin/time -f %M``, 8 x 8 pixels, 1 spp, the icosphere): a 4096 x 2048
-#: map adds 840 MB to a 4 x 2 one's 171 MB as EXR (105 bytes a texel), 854 MB as .hdr (107),
-#: the same with the set-up cache on; rounded up.
-ENV_BYTES_PER_TEXEL = 120
+#: its luminance, weights and alias tables, the packed buffers and the driver's copy of them).
+#: Measured (``/usr/bin/time -f %M``, 8 x 8 pixels, 1 spp, the icosphere): a 4096 x 2048 map adds
+#: 547 MB to a 4 x 2 one's 172 MB as EXR (68 bytes a texel), 561 MB as .hdr (70); 105-107 with
+#: the float64 table build before; the set-up cache on changes nothing. Rounded up.
+ENV_BYTES_PER_TEXEL = 80
 
 #: Mitsuba's smallest environment map (Bitmap::pad_to(2, 3)): W >= 2, H >= 3.
 MIN_WIDTH, MIN_HEIGHT = 2, 3
