@@ -14,6 +14,7 @@ from mcpt.shading.envmap import (
     LUMINANCE,
     MAX_ENV_TEXELS,
     EnvMapError,
+    _cos_fraction,
     _row_weights,
     build_envmap,
     load_envmap,
@@ -26,7 +27,7 @@ from .probes import run_test_probe
 from .test_materials_util import chi2_test, sidak, uniform_numbers
 
 N = 1 << 19
-CHI2_TESTS = 4  # two maps x (fine, coarse) histograms
+CHI2_TESTS = 5  # two maps x (fine, coarse) histograms, and the bilinear warp's 8 x 8 sub-cells
 ALPHA = sidak(0.01, CHI2_TESTS)
 # A rotation about +Y by 90 degrees, then a tilt: the maps' to_world in most tests.
 _c, _s = math.cos(0.4), math.sin(0.4)
@@ -155,6 +156,35 @@ def pdf_close(env, dirs, got, want, rtol: float) -> np.ndarray:
     total = env._corners(i, i1, j).sum(axis=1)
     slope = env.cell_pdf[j, i] * 4.0 / np.where(total > 0, total, 4.0)  # a black cell: uniform
     return np.abs(got - want) <= rtol * want + 2e-4 * slope
+
+
+def test_glsl_warp_is_bilinear_within_cells(gl):
+    """The real GLSL sampler inside cells whose corners differ by up to 10^3 (a 6 x 4 map, random
+    luminances, one black corner region): 8 x 8 sub-cells in (fx, fz) against the bilinear
+    density, whose integral over a sub-cell is its value at the centre times the area."""
+    rng = np.random.default_rng(11)
+    img = (10.0 ** rng.uniform(-3.0, 0.0, (4, 6, 1)) * np.array([1.0, 0.8, 0.6])).astype(np.float32)
+    img[2, 4:] = 0.0
+    env = build_envmap(img, to_world=ROT)
+    out = probe(gl, env, 0, uniform_numbers(N, 2, seed=21)).astype(np.float64)
+    assert np.isfinite(out).all() and (out[:, 3] > 0).all()
+    i, _, j, fx, fy = env._cells(out[:, :3])
+    fz = np.clip(_cos_fraction(j, env.height - 1, fy), 0.0, 1.0 - 1e-12)
+    k = 8
+    hist = np.bincount(((j * env.width + i) * k + (fz * k).astype(int)) * k + (fx * k).astype(int),
+                       minlength=(env.height - 1) * env.width * k * k)
+    c = (np.arange(k) + 0.5) / k
+    lum = env.texels.astype(np.float64) @ LUMINANCE
+    right = np.roll(lum, -1, axis=1)
+    v00, v10, v01, v11 = (x[..., None, None] for x in (lum[:-1], right[:-1], lum[1:], right[1:]))
+    z, x = c[:, None], c[None, :]
+    b = (1 - x) * (1 - z) * v00 + x * (1 - z) * v10 + (1 - x) * z * v01 + x * z * v11   # (hc, W, k, k)
+    total = (v00 + v10 + v01 + v11)
+    share = np.where(total > 0, b / np.where(total > 0, total, 1.0) * 4.0, 1.0) / (k * k)
+    expected = cell_probabilities(env)[..., None, None] * share
+    p_val, stat, dof = chi2_test(hist, expected.ravel() * N)
+    print(f"bilinear sub-cells: p = {p_val:.3f}, {dof} dof")
+    assert p_val > ALPHA, f"bilinear sub-cells: chi2 = {stat:.1f} for {dof} dof, p = {p_val:.3g}"
 
 
 @pytest.mark.parametrize("name", list(MAPS))
