@@ -19,11 +19,13 @@
 // between four texels: a marginal distribution picks the row of cells, that row's conditional one
 // the cell, each from an alias table (Walker / Vose, pbrt-v4 sec. A.1; mcpt/shading/alias.py):
 // one texel read each and no loop, where binary searches over CDFs cost log2(H) + log2(W)
-// dependent reads and loop trips under llvmpipe's 8-lane masks. Cell probabilities are proportional to the luminance integrated over
-// the cell's solid angle (luminance x sin theta, integrated exactly on the host). Inside the cell
-// the direction is uniform in (phi, cos theta), so with pdf_sa = pdf_uv / (2 pi^2 sin theta)
-// (pbrt-v4 sec. 12.5; Mitsuba l. 352-356) the 1 / sin theta cancels: the solid-angle pdf is a
-// per-cell constant, stored beside the texel, finite and consistent at the poles.
+// dependent reads and loop trips under llvmpipe's 8-lane masks. Cell probabilities are
+// proportional to the luminance integrated over the cell's solid angle (luminance x sin theta,
+// integrated exactly on the host). Inside the cell the direction is bilinear in (phi, cos theta)
+// with the corners' luminances (env_bilinear_pdf; uniform in a black cell); as (phi, cos theta)
+// is uniform in solid angle, the solid-angle pdf is the cell's mean, stored beside the texel,
+// times the bilinear factor: no 1 / sin theta (pbrt-v4 sec. 12.5's pdf_uv / (2 pi^2 sin theta)),
+// finite and consistent at the poles.
 #include "common.glsl"
 
 // W x H texels (R, G, B, pdf of the cell whose top-left corner this texel is) as float bits,
@@ -54,10 +56,19 @@ int env_alias_pick(int base, int n, float u, out float t) {
     return own ? b : int(qa.y);
 }
 
+// (cos theta_j - cos theta) / (cos theta_j - cos theta_(j+1)) for theta at fraction fy of row j's
+// band [j, j + 1] pi / hc, by cos a - cos b = 2 sin((a + b) / 2) sin((b - a) / 2): no cancellation
+// near the poles, where cos theta is within a few ulps of +-1.
+float env_cos_fraction(int j, int hc, float fy) {
+    float dt = PI / float(hc), tj = float(j) * dt;
+    return sin(tj + 0.5 * fy * dt) * sin(0.5 * fy * dt) / (sin(tj + 0.5 * dt) * sin(0.5 * dt));
+}
+
 // Texel index of the top-left corner of world direction d's cell; dx = offset to the corner on its
-// right (1, or 1 - W across the seam u = 0); f = bilinear weights. The same steps as the numpy
-// reference EnvMap._cells.
-int env_cell(vec3 d, out int dx, out vec2 f) {
+// right (1, or 1 - W across the seam u = 0); f = bilinear weights (x in phi, y in theta) and
+// fz = the fraction in cos theta across the cell's band (env_cos_fraction). The same steps as the
+// numpy reference EnvMap._cells.
+int env_cell(vec3 d, out int dx, out vec2 f, out float fz) {
     int W = u_env_size.x, H = u_env_size.y;
     vec3 l = d * u_env_to_world;  // to_world^T d
     float r = sqrt(l.x * l.x + l.z * l.z);
@@ -72,20 +83,48 @@ int env_cell(vec3 d, out int dx, out vec2 f) {
     float y = theta * (float(H - 1) * INV_PI);     // v (H - 1)
     int j = min(int(y), H - 2);
     f.y = y - float(j);
+    fz = env_cos_fraction(j, H - 1, f.y);
     dx = i + 1 >= W ? 1 - W : 1;
     return j * W + i;
+}
+
+// Within a cell the sampler is bilinear in (fx, fz) (fz in cos theta, the variable uniform in
+// solid angle) with the corners' luminances: pbrt-v4's SampleBilinear (its SampleLinear twice),
+// the counterpart of Mitsuba's bilinear Hierarchical2D over (u, v) with corners lum x sin theta.
+// The radiance is bilinear in theta rather than cos theta, a small difference in a band of
+// pi / (H - 1): sun-like cells, whose corners differ by orders of magnitude, are sampled in
+// proportion to their radiance instead of uniformly (the per-cell constant density had 2-6x the
+// variance of the direct light on a diffuse surface under bench/scenes-xml/sky-sun.exr; issue
+// #20). The corners are divided by the largest, so no square below overflows.
+vec4 env_corner_lum(int k, int dx, int W) {
+    vec4 v = vec4(luminance(uintBitsToFloat(texelFetch(u_env_texels, k).rgb)),
+                  luminance(uintBitsToFloat(texelFetch(u_env_texels, k + dx).rgb)),
+                  luminance(uintBitsToFloat(texelFetch(u_env_texels, k + W).rgb)),
+                  luminance(uintBitsToFloat(texelFetch(u_env_texels, k + W + dx).rgb)));
+    float m = max(max(v.x, v.y), max(v.z, v.w));
+    return m > 0.0 ? v / m : v;
+}
+
+// The density at f = (fx, fz) of the bilinear warp with corners v (v00, v10, v01, v11), relative
+// to uniform: B(f) / mean(v); 1 for a black cell (then sampled uniformly).
+float env_bilinear_pdf(vec2 f, vec4 v) {
+    float s = v.x + v.y + v.z + v.w;
+    return s > 0.0 ? 4.0 * mix(mix(v.x, v.y, f.x), mix(v.z, v.w, f.x), f.y) / s : 1.0;
 }
 
 vec3 env_radiance_pdf(vec3 d, out float pdf) {
     int dx;
     vec2 f;
-    int k = env_cell(d, dx, f);
+    float fz;
+    int k = env_cell(d, dx, f, fz);
     int W = u_env_size.x;
     vec4 t00 = uintBitsToFloat(texelFetch(u_env_texels, k));
     vec3 t10 = uintBitsToFloat(texelFetch(u_env_texels, k + dx).rgb);
     vec3 t01 = uintBitsToFloat(texelFetch(u_env_texels, k + W).rgb);
     vec3 t11 = uintBitsToFloat(texelFetch(u_env_texels, k + W + dx).rgb);
-    pdf = t00.w;
+    vec4 v = vec4(luminance(t00.rgb), luminance(t10), luminance(t01), luminance(t11));
+    float m = max(max(v.x, v.y), max(v.z, v.w));
+    pdf = t00.w * env_bilinear_pdf(vec2(f.x, fz), m > 0.0 ? v / m : v);
     return mix(mix(t00.rgb, t10, f.x), mix(t01, t11, f.x), f.y);
 }
 
@@ -95,9 +134,9 @@ vec3 env_radiance(vec3 d) {
 }
 
 float env_pdf(vec3 d) {
-    int dx;
-    vec2 f;
-    return uintBitsToFloat(texelFetch(u_env_texels, env_cell(d, dx, f)).w);
+    float pdf;
+    env_radiance_pdf(d, pdf);
+    return pdf;
 }
 
 // (cos theta, sin theta) at fraction t of row j's band [pi j, pi (j + 1)] / hc, uniform in
@@ -112,6 +151,14 @@ vec2 env_band_point(int j, int hc, float t) {
     return vec2(north ? 1.0 - s : s - 1.0, sqrt(max(s * (2.0 - s), 0.0)));
 }
 
+// pbrt-v4 SampleLinear: x in [0, 1) with density proportional to mix(a, b, x), a, b >= 0 (in
+// [0, 1] here: env_corner_lum); a == b (a black cell too) is uniform.
+float env_sample_linear(float u, float a, float b) {
+    if (a == b) return u;
+    float den = a + sqrt(mix(a * a, b * b, u));
+    return den > 0.0 ? min(u * (a + b) / den, 0.99999994) : 0.0;
+}
+
 // u.y picks the row of cells, u.x the cell in it. The pdf and radiance are looked up from the
 // direction (env_radiance_pdf), so pdf == env_pdf(d) exactly; it can differ from the sampled
 // cell's only for a direction on a cell border (float rounding), a set of measure zero.
@@ -121,8 +168,12 @@ vec3 env_sample_le(vec2 u, out float pdf, out vec3 le) {
     float tv, tu;
     int j = env_alias_pick(0, hp, u.y, tv);
     int i = env_alias_pick(hp + j * wp, wp, u.x, tu);
-    float phi = (float(i) + 0.5 + tu) * (2.0 * PI / float(W));
-    vec2 cs = env_band_point(j, hc, tv);
+    // pbrt-v4 SampleBilinear: fz from the marginal in z, then fx given fz (SampleLinear each).
+    vec4 v = env_corner_lum(j * W + i, i + 1 >= W ? 1 - W : 1, W);
+    float fz = env_sample_linear(tv, v.x + v.y, v.z + v.w);
+    float fx = env_sample_linear(tu, mix(v.x, v.z, fz), mix(v.y, v.w, fz));
+    float phi = (float(i) + 0.5 + fx) * (2.0 * PI / float(W));
+    vec2 cs = env_band_point(j, hc, fz);
     vec3 d = u_env_to_world * vec3(sin(phi) * cs.y, cs.x, -cos(phi) * cs.y);
     le = env_radiance_pdf(d, pdf);
     return d;

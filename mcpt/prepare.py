@@ -29,6 +29,7 @@ from .gpu.scene_size import check_scene_size
 from .output.layers import feature_flags as aov_flags
 from .scene import Scene, SceneError, load_scene
 from .shading.camera import check_camera
+from .shading.environment import check_environment_file
 from .shapes.world import World, load_world
 from .shapes.world_cache import cached_world
 
@@ -66,6 +67,9 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     scene = scene.with_overrides(spp=spp, bounces=bounces, seed=seed, resolution=resolution)
     check_scene_size(scene)  # issue #24: before any geometry is read or tessellated
     gl = shared_context(gl_backend)
+    # issue #20: an environment map too large for this driver or this machine, from its header
+    check_environment_file(scene.environment, scene.where("environment", "file"),
+                           gl.limits()["max_texture_buffer_size"])
     # The hash a checkpoint, an EXR header and every farm worker check is that of the files this
     # world was built from (issue #24: a mesh edited during a farm render was drawn by the workers
     # while the header recorded the original): taken before and after reading them, and refused

@@ -96,3 +96,22 @@ def test_rows_do_not_interfere():
     p = realised(*build_alias(w), 300)
     for r in range(w.shape[0]):
         np.testing.assert_allclose(p[r], realised(*build_alias(w[r: r + 1]), 300)[0], rtol=3e-7, atol=0.0)
+
+
+@pytest.mark.parametrize("n", [3, 65, 2048])
+def test_float32_weights_realise_their_weights_to_float32_precision(n):
+    """float32 weights (the environment map's) build float32 q directly: the same tables'
+    guarantees, to float32 precision. Each q rounds to float32 before the sweep, so a row's q add
+    up to n' only within the row's float32 roundings (at most 2^-24 of the row's probability),
+    which the row's last large item absorbs; a small item (q < 1) keeps its own q."""
+    w = _degenerate_rows(n, np.random.default_rng(n + 1)).astype(np.float32)
+    q, alias = build_alias(w)
+    assert q.dtype == np.float32 and ((q >= 0) & (q <= 1)).all() and (alias >= 0).all() and (alias < n).all()
+    assert (q[:, n:] == 0).all(), "a padding bucket picks itself"
+    p = realised(q, alias, n)
+    w64 = w.astype(np.float64)
+    assert (p[w == 0] == 0).all(), "a zero weight is reachable"
+    target = w64 / w64.sum(axis=1, keepdims=True)
+    small = target < 1.0 / padded_size(n)
+    np.testing.assert_allclose(p[small], target[small], rtol=3e-7, atol=0.0)
+    np.testing.assert_allclose(p, target, rtol=3e-7, atol=2.0**-24)

@@ -145,3 +145,62 @@ def test_transparent_film_writes_coverage_as_alpha(tmp_path):
     q = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
     assert q.shape == (24, 24, 4) and q[0, 0, 3] == 0 and q[12, 12, 3] == 255
     assert np.array_equal(q[..., 3], np.round(np.clip(a, 0, 1) * 255).astype(np.uint8))
+
+
+def _hdr_header_only(path, width, height):
+    """A Radiance .hdr whose resolution line claims width x height and that holds no pixel: what
+    the preflight must refuse before any decoder allocates them."""
+    path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + f"-Y {height} +X {width}\n".encode())
+    return path
+
+
+def _cli_line(tmp_path, env: str):
+    """(exit code, the output's non-blank lines, whether the image was written) of ``mcpt render``
+    of :func:`map_scene`'s scene with ``environment: env``."""
+    from click.testing import CliRunner
+
+    from mcpt.cli.main import main
+
+    scene = tmp_path / "s.yaml"
+    scene.write_text(f"""
+camera: {{position: [0, 0, 4], look_at: [0, 0, 0], vfov_deg: 40, resolution: [8, 8]}}
+materials:
+  m: {{albedo: [0.5, 0.7, 0.3]}}
+meshes:
+  - file: {ROOT / "scenes" / "models" / "icosphere.obj"}
+    material: m
+environment: {env}
+""")
+    out = tmp_path / "x.exr"
+    r = CliRunner().invoke(main, ["render", str(scene), "--spp", "1", "-o", str(out), "--quiet", "--no-cache"])
+    return r.exit_code, [ln for ln in r.output.splitlines() if ln.strip()], out.exists()
+
+
+def test_a_map_larger_than_the_memory_is_refused_from_its_header(tmp_path, monkeypatch):
+    """Issue #20 "absurdly large (preflight against memory)": an 8192 x 4096 map (2^25 texels,
+    within the texel cap) needs ~2.5 GiB through the build; with 1 GiB available it is one located
+    line, exit 2, before anything is decoded (the file holds no pixel: a decoder would fail)."""
+    from mcpt.gpu import host_memory
+
+    _hdr_header_only(tmp_path / "big.hdr", 8192, 4096)
+    monkeypatch.setattr(host_memory, "available_bytes", lambda: 2**30)
+    code, lines, written = _cli_line(tmp_path, "{file: big.hdr}")
+    assert code == 2 and len(lines) == 1 and not written, lines
+    assert re.search(r"s\.yaml:8: environment\.file: .*big\.hdr: 8192 x 4096 needs about 2\.5 GiB to load, "
+                     r"more than the 1\.0 GiB of memory available", lines[0]), lines[0]
+
+
+def test_a_map_over_the_drivers_buffer_texture_limit_is_refused_from_its_header(tmp_path, monkeypatch):
+    """Issue #20 "preflight against GL_MAX_TEXTURE_SIZE": the map is a buffer texture, so the
+    driver's GL_MAX_TEXTURE_BUFFER_SIZE is the limit (llvmpipe does not clamp a larger buffer).
+    A driver reporting 2^20 texels refuses a 2048 x 1024 map in one located line, from the header
+    (the file holds no pixel), before the world is built."""
+    from mcpt.gpu.context import GLContext
+
+    real = GLContext.limits
+    monkeypatch.setattr(GLContext, "limits", lambda self: {**real(self), "max_texture_buffer_size": 1 << 20})
+    _hdr_header_only(tmp_path / "wide.hdr", 2048, 1024)
+    code, lines, written = _cli_line(tmp_path, "{file: wide.hdr}")
+    assert code == 2 and len(lines) == 1 and not written, lines
+    assert re.search(r"s\.yaml:8: environment\.file: .*wide\.hdr: 2048 x 1024 = 2097152 texels exceed "
+                     r"GL_MAX_TEXTURE_BUFFER_SIZE = 1048576", lines[0]), lines[0]

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..errors import McptError
 from .envmap import EnvMap, build_envmap, read_envmap
+from .envmap_file import check_envmap_file
 
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
@@ -34,6 +35,19 @@ def load_environment(env, where: str) -> EnvMap | None:
         return None
     try:
         return build_envmap(read_envmap(env.file), env.scale, env.transform.matrix(), name=str(env.file))
+    except McptError as exc:
+        raise EnvironmentMapError(f"{where}: {exc}") from None
+
+
+def check_environment_file(env, where: str, buffer_limit: int) -> None:
+    """Issue #20: refuse, from its header and before the world is built, a map that the GL
+    driver's buffer textures (``buffer_limit``: its GL_MAX_TEXTURE_BUFFER_SIZE, in texels) or this
+    machine's memory cannot hold (mcpt/shading/envmap_file.py check_envmap_size); ``where`` as
+    :func:`load_environment`'s."""
+    if env is None or env.file is None:
+        return
+    try:
+        check_envmap_file(env.file, buffer_limit)
     except McptError as exc:
         raise EnvironmentMapError(f"{where}: {exc}") from None
 

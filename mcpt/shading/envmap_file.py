@@ -8,8 +8,13 @@ note says so once.
 Refused, each in one line that names the file (:class:`EnvMapError`):
 
 * a file that is not an image of its kind, or that cannot be read;
-* an image larger than :data:`MAX_ENV_TEXELS`, found from the file's header *before* decoding
-  (a 100k x 50k EXR would otherwise allocate 60 GB first);
+* an image too large, found from the file's header *before* decoding (a 100k x 50k EXR would
+  otherwise allocate 60 GB first; issue #20 "preflight against memory and GL_MAX_TEXTURE_SIZE"):
+  more than :data:`MAX_ENV_TEXELS`; more texels than the GL driver's buffer textures hold (the
+  map is uploaded as buffer textures, mcpt/shading/envmap.py EnvMap.pack, not as a 2-D texture,
+  so GL_MAX_TEXTURE_BUFFER_SIZE is the limit that applies and GL_MAX_TEXTURE_SIZE does not;
+  llvmpipe does not clamp an oversized buffer, so we check); more memory than is available, at
+  the measured :data:`ENV_BYTES_PER_TEXEL`;
 * NaN, infinite or negative texels, with their count. They are refused rather than clamped: such
   a value is not a radiance, and replacing it would silently change the light the scene gets
   (the user can fix the file; Mitsuba would propagate the NaN into the render).
@@ -23,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import McptError
-from .image_header import exr_size, hdr_size, ldr_size
+from .image_header import image_size
 
 log = logging.getLogger("mcpt")
 
@@ -31,6 +36,16 @@ log = logging.getLogger("mcpt")
 #: texture holds one RGBA32 texel per image texel (1 GiB at the limit), within llvmpipe's
 #: GL_MAX_TEXTURE_BUFFER_SIZE of 2^27 texels; the upload checks the driver's own limit again.
 MAX_ENV_TEXELS = 1 << 26
+
+#: Peak host bytes per texel of an environment map through ``mcpt render`` (decoded, scaled,
+#: its luminance, weights and alias tables, the packed buffers and the driver's copy of them).
+#: Measured (``/usr/bin/time -f %M``, 8 x 8 pixels, 1 spp, the icosphere): a 4096 x 2048 map adds
+#: 547 MB to a 4 x 2 one's 172 MB as EXR (68 bytes a texel), 561 MB as .hdr (70); 105-107 with
+#: the float64 table build before; the set-up cache on changes nothing. Rounded up.
+ENV_BYTES_PER_TEXEL = 80
+
+#: Mitsuba's smallest environment map (Bitmap::pad_to(2, 3)): W >= 2, H >= 3.
+MIN_WIDTH, MIN_HEIGHT = 2, 3
 
 HDR_SUFFIXES = (".exr", ".hdr")
 LDR_SUFFIXES = (".png", ".jpg", ".jpeg")
@@ -51,15 +66,20 @@ def _one_line(text: object) -> str:
 # Sizes from the headers, before any pixel is decoded
 
 
-def _exr_size(path: Path) -> tuple[int, int]:
-    return exr_size(path, EnvMapError)
+def buffer_texels(width: int, height: int) -> int:
+    """Texels of the larger of the map's two buffer textures (EnvMap.pack): ``env_texels``, one
+    per texel of the padded image. ``env_alias`` never has more: (H' + (H - 1) W') / 2 + 1 with
+    H' < 2 (H - 1), W' < 2 W (powers of two) is below (H - 1) (W - 1) + H <= W H."""
+    return max(width, MIN_WIDTH) * max(height, MIN_HEIGHT)
 
 
-def _hdr_size(path: Path) -> tuple[int, int]:
-    return hdr_size(path, EnvMapError)
+def check_envmap_size(path, size: tuple[int, int] | None, buffer_limit: int | None = None) -> None:
+    """Refuse an image of ``size`` (width, height; None: unknown, the decoder decides) that
+    cannot be an environment map here: empty, over :data:`MAX_ENV_TEXELS`, over ``buffer_limit``
+    texels of a buffer texture (the GL driver's GL_MAX_TEXTURE_BUFFER_SIZE; None: the figure mcpt
+    relies on, mcpt/gpu/limits.py), or needing more memory than is available."""
+    from ..gpu import host_memory, limits
 
-
-def _check_size(path: Path, size: tuple[int, int] | None) -> None:
     if size is None:
         return
     w, h = size
@@ -68,6 +88,24 @@ def _check_size(path: Path, size: tuple[int, int] | None) -> None:
     if w * h > MAX_ENV_TEXELS:
         raise EnvMapError(f"{path}: {w} x {h} = {w * h} texels; an environment map may have at most "
                           f"{MAX_ENV_TEXELS} (2^26), e.g. 8192 x 4096")
+    limit = limits.GL_BUFFER_TEXELS if buffer_limit is None else buffer_limit
+    if buffer_texels(w, h) > limit:
+        raise EnvMapError(f"{path}: {w} x {h} = {w * h} texels exceed GL_MAX_TEXTURE_BUFFER_SIZE = {limit} "
+                          f"(an environment map is a buffer texture, one texel per pixel)")
+    need, avail = w * h * ENV_BYTES_PER_TEXEL, host_memory.available_bytes()
+    if avail is not None and need > avail:
+        raise EnvMapError(f"{path}: {w} x {h} needs about {need / 2**30:.1f} GiB to load, more than the "
+                          f"{avail / 2**30:.1f} GiB of memory available")
+
+
+def check_envmap_file(path, buffer_limit: int | None = None) -> None:
+    """:func:`check_envmap_size` of the size in the file's header, nothing decoded (a missing or
+    unreadable file is left to the reader, which says so)."""
+    try:
+        size = image_size(Path(path), EnvMapError)
+    except OSError:
+        return
+    check_envmap_size(path, size, buffer_limit)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -127,12 +165,13 @@ def _read_cv2(path: Path, hdr: bool) -> np.ndarray:
 
 
 def check_texels(img: np.ndarray, where: str, what: str = "an environment map", holds: str = "radiance",
-                 error: type[Exception] = EnvMapError) -> None:
+                 error: type[Exception] = EnvMapError) -> float:
     """Refuse NaN, infinite or negative texels, with their count (``where`` names the source;
-    ``what`` / ``holds`` / ``error``: a surface texture's words and error class)."""
+    ``what`` / ``holds`` / ``error``: a surface texture's words and error class); else return
+    the largest texel value."""
     lo, hi = float(img.min()), float(img.max())  # NaN propagates through min / max
     if np.isfinite(lo) and np.isfinite(hi) and lo >= 0.0:
-        return
+        return hi
     finite = np.isfinite(img).all(axis=-1)
     bad = int(img.shape[0] * img.shape[1] - np.count_nonzero(finite))
     negative = int(np.count_nonzero((np.where(finite[..., None], img, 0.0) < 0.0).any(axis=-1)))
@@ -152,19 +191,15 @@ def read_envmap_image(path: str | Path) -> tuple[np.ndarray, str | None]:
                           f"use .exr or .hdr (or .png / .jpg)")
     if not path.is_file():
         raise EnvMapError(f"{path}: environment map not found")
+    check_envmap_file(path)
     try:
         if suffix == ".exr":
-            _check_size(path, _exr_size(path))
             img = _read_exr(path)
-        elif suffix == ".hdr":
-            _check_size(path, _hdr_size(path))
-            img = _read_cv2(path, hdr=True)
         else:
-            _check_size(path, ldr_size(path))
-            img = _read_cv2(path, hdr=False)
+            img = _read_cv2(path, hdr=suffix == ".hdr")
     except OSError as exc:
         raise EnvMapError(f"{path}: cannot read: {_one_line(exc.strerror or exc)}") from None
-    _check_size(path, (img.shape[1], img.shape[0]))
+    check_envmap_size(path, (img.shape[1], img.shape[0]))
     check_texels(img, str(path))
     return img, (LDR_NOTE if suffix in LDR_SUFFIXES else None)
 
