@@ -63,9 +63,10 @@ def write_exr(path, img):
     return path
 
 
-def map_scene(tmp_path, env: str, bounces: int = 4):
-    text = f"""
-camera: {{position: [0, 0, 4], look_at: [0, 0, 0], vfov_deg: 40, resolution: [24, 24]}}
+def _scene_text(env: str, bounces: int = 4, size: int = 24) -> str:
+    """An icosphere of albedo (0.5, 0.7, 0.3) under ``environment: env``."""
+    return f"""
+camera: {{position: [0, 0, 4], look_at: [0, 0, 0], vfov_deg: 40, resolution: [{size}, {size}]}}
 render: {{bounces: {bounces}}}
 materials:
   m: {{albedo: [0.5, 0.7, 0.3]}}
@@ -74,7 +75,10 @@ meshes:
     material: m
 environment: {env}
 """
-    return parse_scene(text, tmp_path / "inline.yaml")
+
+
+def map_scene(tmp_path, env: str, bounces: int = 4):
+    return parse_scene(_scene_text(env, bounces), tmp_path / "inline.yaml")
 
 
 @pytest.mark.parametrize("sampling", ["mis", "nee"])
@@ -162,15 +166,7 @@ def _cli_line(tmp_path, env: str):
     from mcpt.cli.main import main
 
     scene = tmp_path / "s.yaml"
-    scene.write_text(f"""
-camera: {{position: [0, 0, 4], look_at: [0, 0, 0], vfov_deg: 40, resolution: [8, 8]}}
-materials:
-  m: {{albedo: [0.5, 0.7, 0.3]}}
-meshes:
-  - file: {ROOT / "scenes" / "models" / "icosphere.obj"}
-    material: m
-environment: {env}
-""")
+    scene.write_text(_scene_text(env, size=8))
     out = tmp_path / "x.exr"
     r = CliRunner().invoke(main, ["render", str(scene), "--spp", "1", "-o", str(out), "--quiet", "--no-cache"])
     return r.exit_code, [ln for ln in r.output.splitlines() if ln.strip()], out.exists()
