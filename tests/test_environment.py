@@ -182,7 +182,7 @@ def test_a_map_larger_than_the_memory_is_refused_from_its_header(tmp_path, monke
     monkeypatch.setattr(host_memory, "available_bytes", lambda: 2**30)
     code, lines, written = _cli_line(tmp_path, "{file: big.hdr}")
     assert code == 2 and len(lines) == 1 and not written, lines
-    assert re.search(r"s\.yaml:8: environment\.file: .*big\.hdr: 8192 x 4096 needs about 2\.5 GiB to load, "
+    assert re.search(r"s\.yaml:9: environment\.file: .*big\.hdr: 8192 x 4096 needs about 2\.5 GiB to load, "
                      r"more than the 1\.0 GiB of memory available", lines[0]), lines[0]
 
 
@@ -198,5 +198,5 @@ def test_a_map_over_the_drivers_buffer_texture_limit_is_refused_from_its_header(
     _hdr_header_only(tmp_path / "wide.hdr", 2048, 1024)
     code, lines, written = _cli_line(tmp_path, "{file: wide.hdr}")
     assert code == 2 and len(lines) == 1 and not written, lines
-    assert re.search(r"s\.yaml:8: environment\.file: .*wide\.hdr: 2048 x 1024 = 2097152 texels exceed "
+    assert re.search(r"s\.yaml:9: environment\.file: .*wide\.hdr: 2048 x 1024 = 2097152 texels exceed "
                      r"GL_MAX_TEXTURE_BUFFER_SIZE = 1048576", lines[0]), lines[0]
