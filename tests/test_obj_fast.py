@@ -1,0 +1,136 @@
+"""The numpy OBJ reader (mcpt/shapes/obj_fast.py) gives what Assimp's import gives, bit for bit, or
+steps aside (None) so that Assimp reads the file (issue #23)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mcpt.shapes import assimp_file
+from mcpt.shapes.obj_fast import read_obj_fast
+
+from .conftest import CORNELL
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = Path("/work/shared") if Path("/work/shared/models").is_dir() else ROOT.parent / "shared"
+MODELS = sorted({*ROOT.glob("scenes/**/*.obj"), *SHARED.glob("models/**/*.obj"), *SHARED.glob("scenes-ref/*/*.obj")})
+
+
+def assimp_only(path: Path, need_normals: bool, monkeypatch):
+    """What read_assimp gives with the fast reader switched off."""
+    with monkeypatch.context() as m:
+        m.setattr(assimp_file, "read_obj_fast", lambda *a, **k: None)
+        return assimp_file.read_assimp(path, need_normals=need_normals)
+
+
+def assert_same(fast, ref) -> None:
+    assert [m for m in fast.materials] == [m for m in ref.materials]
+    assert len(fast.parts) == len(ref.parts)
+    for a, b in zip(fast.parts, ref.parts):
+        assert (a.label, a.material) == (b.label, b.material)
+        for field in ("vertices", "indices", "normals", "uvs"):
+            x, y = getattr(a, field), getattr(b, field)
+            assert (x is None) == (y is None), field
+            if x is not None:
+                assert x.shape == y.shape and x.dtype == y.dtype, field
+                assert x.tobytes() == y.tobytes(), field  # bit for bit, -0.0 included
+
+
+@pytest.mark.parametrize("path", MODELS, ids=lambda p: f"{p.parent.name}/{p.name}")
+@pytest.mark.parametrize("need_normals", [False, True])
+def test_models_match_assimp(path, need_normals, monkeypatch):
+    fast = read_obj_fast(path, path.read_bytes(), need_normals=need_normals)
+    if fast is not None:
+        assert_same(fast, assimp_only(path, need_normals, monkeypatch))
+
+
+def test_common_models_take_the_fast_path():
+    """Not vacuous: the Cornell box, spot (v/vt) and the reference spheres are read here."""
+    for path in [*CORNELL.glob("*.obj"), ROOT / "scenes/models/spot/spot_triangulated.obj",
+                 ROOT / "scenes/models/icosphere.obj"]:
+        assert read_obj_fast(path, path.read_bytes()) is not None, path
+
+
+NUMBERS = ["1.3", "-0.5", "0.5", "1.", "+2.25", "123456789.123456789012345678", "0.1234567890123456789",
+           "-9.25427e-05", "3.5E+2", "7e-45", "1.17549435e-38", "2.5e12", "16777217", "0.30000001192092896",
+           "-1.000000059604644775390625", "4.999999", "10000000000000"]
+
+
+def test_numbers_parse_as_assimp_parses_them(tmp_path, monkeypatch):
+    """fast_atoreal_move<float> is not a correctly rounded parse: its float32 sums and powf
+    exponents are reproduced (every token here lands on a different vertex row). Coordinates past
+    ~2.5e13 are left to Assimp by the join check (obj_fast._near_pairs), so stop there."""
+    rows = [f"v {x} {i}.25 {-i}" for i, x in enumerate(NUMBERS)]
+    rows += [f"v 1 {i}e-{i} {i}.5" for i in range(1, 46)] + [f"v 2 3.{i}e{i} {i}.75" for i in range(0, 13)]
+    n = len(rows)
+    faces = [f"f {i + 1} {(i + 1) % n + 1} {(i + 2) % n + 1}" for i in range(n)]
+    path = tmp_path / "numbers.obj"
+    path.write_text("\n".join(["# numbers", *rows, "s off", *faces]) + "\n")
+    fast = read_obj_fast(path, path.read_bytes())
+    assert fast is not None
+    assert_same(fast, assimp_only(path, False, monkeypatch))
+
+
+def test_seams_and_shared_corners_join_as_assimp(tmp_path, monkeypatch):
+    """A position used with two UVs (a seam) stays two vertices, repeated rows of the tables
+    join, vertex order is first use, normals follow their corner."""
+    text = """v 0 0 0
+v 1 0 0
+v 0 1 0
+v 1 1 0
+v 0 0 0
+vt 0 0
+vt 1 0
+vt 0 1
+vt 1 1
+vt 0.5 0.5
+vn 0 0 1
+vn 0 0 1
+vn 0 0.6 0.8
+vn 0 2 0
+f 1/4/4 2/2/4 3/3/4
+f 1/1/1 2/2/1 3/3/2
+f 2/2/2 4/4/3 3/3/1
+f 5/5/1 2/2/1 4/4/3
+f 5/1/2 2/2/1 3/3/2
+"""
+    path = tmp_path / "seams.obj"
+    path.write_text(text)
+    for need in (False, True):
+        fast = read_obj_fast(path, path.read_bytes(), need_normals=need)
+        assert fast is not None
+        assert_same(fast, assimp_only(path, need, monkeypatch))
+    # Equal rows join (vn 1 = vn 2, v 5 = v 1): 1/4/4, 2/2/4, 3/3/4 (a normal of length 2, kept
+    # as the file gives it), then 1/1/1, 2/2/1, 3/3/2, 4/4/3 and the seam corner 5/5/1 (the
+    # position of v 1 with another UV) are the eight vertices.
+    assert len(fast.parts[0].vertices) == 8
+
+
+@pytest.mark.parametrize("text", [
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n",           # a quad: Assimp triangulates
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n",          # materials
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\ng part\nf 1 2 3\n",              # groups
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n",                   # relative indices
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.000001 0 0\nf 1 2 3\nf 4 2 3\n",  # within Assimp's join epsilon
+    "v -0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 0\nf 1 2 3\nf 4 3 2\n",   # -0.0 and 0.0: which one Assimp keeps
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1/1 2/1 3/1\nvt 0 0\n",  # mixed face forms
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",                      # out of range (Assimp names the line)
+    "v 0 0 0\nv 1,5 0 0\nv 0 1 0\nf 1 2 3\n",                    # a comma
+    "v 0 0 0\nv .5 0 0\nv 0 1 0\nv 0 2 0\nf 1 2 3\n",           # ".5": Assimp drops the vertex
+    "v 0 0 0\nv 1/2 0\nv 0 1 0\nf 1 2 3\n",                    # "1/2": one number to Assimp
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 02 3\n",                   # "02": read twice by Assimp
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1/1 2/1 3/1\nvt 0 0\n",  # vt after the faces
+])
+def test_outside_the_subset_is_left_to_assimp(tmp_path, text):
+    path = tmp_path / "other.obj"
+    path.write_text(text)
+    assert read_obj_fast(path, path.read_bytes()) is None
+
+
+def test_a_tiny_near_pair_goes_to_assimp_but_a_far_one_does_not(tmp_path):
+    """The join check: 2e-5 apart is outside Assimp's 1e-5 tolerance (fast path), 5e-6 inside."""
+    for gap, fast in (("0.00002", True), ("0.000005", False)):
+        path = tmp_path / "pair.obj"
+        path.write_text(f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv {gap} 0 0\nf 1 2 3\nf 4 3 2\n")
+        assert (read_obj_fast(path, path.read_bytes()) is not None) is fast
