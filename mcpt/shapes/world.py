@@ -102,7 +102,7 @@ def load_world(scene: Scene) -> World:
     powers = None
     if any(table.emission_texture >= 0):  # issue #22: textured emitters picked by their real power
         powers = triangle_powers(geometry.areas(tris), tri_mat, uvs, table, resolver.textures)
-    lights = _lights(scene, tris, table.emission[tri_mat], powers)
+    lights = _lights(scene, tris, bvh, table.emission[tri_mat], powers)
     if lights.entries == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")
@@ -115,10 +115,12 @@ def load_world(scene: Scene) -> World:
                  _corner_tangents(parts, keep, bvh.order))
 
 
-def _lights(scene: Scene, tris: np.ndarray, tri_emission: np.ndarray, powers=None) -> Lights:
+def _lights(scene: Scene, tris: np.ndarray, bvh: BVH, tri_emission: np.ndarray, powers=None) -> Lights:
     """Emissive triangles, the scene's punctual lights and its environment (issue #20), in one
     table; positions relative to the camera like the triangles."""
-    lo, hi = tris.reshape(-1, 3).min(axis=0), tris.reshape(-1, 3).max(axis=0)
+    # The scene's box is the BVH root's: the min/max of the float32 corners, the same values as
+    # tris.min(axis=0) over 3F corners, which cost 0.2 s at 10^6 triangles (issue #23).
+    lo, hi = bvh.bounds_min[0], bvh.bounds_max[0]
     radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
     origin = np.asarray(scene.origin, np.float64)
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
