@@ -49,7 +49,7 @@ def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
         raise Unsupported("empty, line continuations or lone carriage returns")
     raw = np.frombuffer(data, np.uint8)
     starts, ends, kind = _lines(raw)
-    text = _numbers_only(raw, starts, ends, kind)
+    text = _numbers_only(data, starts, ends, kind)
     tok_a, tok_z = token_bounds(text)
     counts = np.diff(np.append(np.searchsorted(tok_a, starts), len(tok_a)))
     fields = _face_form(data, starts, kind)
@@ -98,10 +98,13 @@ def _lines(raw: np.ndarray):
     return starts, ends, kind
 
 
-def _numbers_only(raw, starts, ends, kind) -> np.ndarray:
-    """The file's bytes with statements' keywords, comments and ``s`` lines blanked and every
-    separator made a space; raises Unsupported if anything but number bytes is left."""
-    text = raw.copy()
+def _numbers_only(data: bytes, starts, ends, kind) -> np.ndarray:
+    """The file's bytes with every separator made a space and statements' keywords, comments and
+    ``s`` lines blanked, PAD spaces appended; raises Unsupported if anything but number bytes is
+    left. (One translated copy, made writable in place: big temporaries cost page faults.)"""
+    buf = bytearray(data.translate(_TO_SPACE))
+    buf += b" " * PAD
+    text = np.frombuffer(buf, np.uint8)
     text[starts[kind != _SKIP]] = 32
     two = starts[(kind == _VT) | (kind == _VN)]
     text[two + 1] = 32
@@ -110,10 +113,9 @@ def _numbers_only(raw, starts, ends, kind) -> np.ndarray:
         a, n = starts[skip], (ends - starts)[skip]
         offsets = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
         text[np.repeat(a, n) + offsets] = 32
-    blanked = text.tobytes().translate(_TO_SPACE)
-    if blanked.translate(None, _NUMBER_BYTES):
+    if buf.translate(None, _NUMBER_BYTES):
         raise Unsupported("bytes other than numbers in v/vt/vn/f lines")
-    return np.frombuffer(blanked + b" " * PAD, np.uint8)
+    return text
 
 
 def _face_form(data: bytes, starts, kind) -> tuple[int, ...]:

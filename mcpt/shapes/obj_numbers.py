@@ -26,6 +26,8 @@ _RELEVANT_DECIMALS = 15
 _MAX_INT_DIGITS = 18
 #: Spaces the caller appends to the text so that digit_values can read whole windows at its end.
 PAD = 32
+#: 10^k for k = 0..18 (a table lookup; numpy's integer ``10 ** array`` is a slow loop).
+_POW10 = 10 ** np.arange(19, dtype=np.int64)
 _DOT, _E, _LOWER_E, _MINUS, _PLUS = ord("."), ord("E"), ord("e"), ord("-"), ord("+")
 
 
@@ -55,18 +57,27 @@ def digit_values(text: np.ndarray, a: np.ndarray, z: np.ndarray) -> np.ndarray:
     if width == 0:
         return np.zeros(len(a), np.int64)
     # All spans' bytes at once, left-aligned in `width` columns (a strided view of the text, one
-    # row gathered per span), digits past a span's end zeroed: the row read as a `width`-digit
-    # number is the span's value times 10^(width - n). The text must run `width` bytes past the
-    # last span (the caller pads it, PAD): no copy of it is made here.
+    # row gathered per span), digits past a span's end zeroed, then Horner's rule a column at a
+    # time: the row read as a `width`-digit number is the span's value times 10^(width - n).
+    # The text must run `width` bytes past the last span (the caller pads it, PAD).
     if len(a) and int(a.max()) + width > len(text):
         raise Unsupported("text not padded")
     d = np.lib.stride_tricks.sliding_window_view(text, width)[a] - np.uint8(48)
     d[np.arange(width) >= n[:, None]] = 0
     if (d > 9).any():
         raise Unsupported("a non-digit in an integer")
-    small = np.int32 if width <= 9 else np.int64  # int32 sums for up to 9 digits: half the traffic
-    full = d.astype(small) @ (10 ** np.arange(width - 1, -1, -1, dtype=small))
-    return full.astype(np.int64) // (10 ** (width - n).astype(np.int64))
+    return _horner(d) // _POW10[width - n]
+
+
+def _horner(d: np.ndarray) -> np.ndarray:
+    """int64 value of every row of an (n, width) digit matrix (int32 sums up to 9 digits). No
+    (n, width) integer copy is made: big temporaries cost page faults, issue #23."""
+    small = np.int32 if d.shape[1] <= 9 else np.int64
+    value = np.zeros(len(d), small)
+    for j in range(d.shape[1]):
+        value *= 10
+        value += d[:, j]
+    return value.astype(np.int64)
 
 
 def _one_per_token(positions: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
@@ -106,24 +117,24 @@ def _mantissas(text, starts, a, dot, end) -> np.ndarray:
     if ((int_end == a) & (frac_n == 0)).any():
         raise Unsupported("number without digits")  # Assimp throws ("does not start with digit")
     kept = np.minimum(frac_n, _RELEVANT_DECIMALS)
-    length = end - starts
+    length = end - a  # from the first digit (after the sign)
     width = int(length.max())
     if width > _MAX_INT_DIGITS:
         whole = digit_values(text, a, int_end)
         digits = digit_values(text, frac_a, frac_a + kept)
     else:
-        if int(starts.max()) + width > len(text):
+        if int(a.max()) + width > len(text):
             raise Unsupported("text not padded")
-        d = np.lib.stride_tricks.sliding_window_view(text, width)[starts] - np.uint8(48)
+        d = np.lib.stride_tricks.sliding_window_view(text, width)[a] - np.uint8(48)
         d[np.arange(width) >= length[:, None]] = 0  # the bytes after the mantissa
-        # Inside a mantissa the caller's checks leave digits, one dot and a leading sign: the
-        # latter two are the bytes past 9 here, and count as zero digits.
+        # Inside a mantissa the caller's checks leave digits and one dot: the dot is the byte
+        # past 9 here, and counts as a zero digit (the split below skips it).
         d[d > 9] = 0
-        raw = d.astype(np.int64) @ (10 ** np.arange(width - 1, -1, -1, dtype=np.int64))
-        split = 10 ** (width - (int_end - starts)).astype(np.int64)
+        raw = _horner(d)
+        split = _POW10[width - (int_end - a)]
         whole = raw // split
-        digits = (raw % split) // (10 ** (width - length).astype(np.int64))
-        digits //= 10 ** (frac_n - kept).astype(np.int64)  # digits past the 15th are skipped
+        digits = (raw % split) // _POW10[width - length]
+        digits //= _POW10[frac_n - kept]  # digits past the 15th are skipped
     frac = digits.astype(np.float64) * _FAST_ATOF_TABLE[kept]
     f = whole.astype(np.float32)
     return np.where(frac_n > 0, f + frac.astype(np.float32), f)  # float32 + float32, as Assimp adds
