@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mcpt.shapes import assimp_file
@@ -134,3 +135,38 @@ def test_a_tiny_near_pair_goes_to_assimp_but_a_far_one_does_not(tmp_path):
         path = tmp_path / "pair.obj"
         path.write_text(f"v 0 0 0\nv 1 0 0\nv 0 1 0\nv {gap} 0 0\nf 1 2 3\nf 4 3 2\n")
         assert (read_obj_fast(path, path.read_bytes()) is not None) is fast
+
+
+def _random_obj(rng: np.random.Generator) -> str:
+    """A small OBJ in the subset, with numbers written many ways (digits, signs, exponents, CRLF)."""
+    def num() -> str:
+        x = rng.normal() * 10.0 ** rng.integers(-6, 5)
+        style = rng.integers(4)
+        if style == 0:
+            return f"{x:.{rng.integers(0, 12)}f}"
+        if style == 1:
+            return f"{x:.{rng.integers(1, 9)}e}"
+        if style == 2:
+            return repr(float(np.float32(x)))
+        return f"{x:+.{rng.integers(1, 17)}g}"
+    nv, nt = int(rng.integers(3, 40)), int(rng.integers(1, 10))
+    lines = [f"v {num()} {num()} {num()}" for _ in range(nv)] + [f"vt {num()} {num()}" for _ in range(nt)]
+    form = rng.integers(2)
+    for _ in range(int(rng.integers(1, 30))):
+        v, t = rng.integers(1, nv + 1, 3), rng.integers(1, nt + 1, 3)
+        lines.append("f " + " ".join(f"{a}/{b}" if form else f"{a}" for a, b in zip(v, t)))
+    return ("\r\n" if rng.integers(2) else "\n").join(lines) + "\n"
+
+
+def test_random_files_match_assimp(tmp_path, monkeypatch):
+    """200 random files: every one the fast path takes is Assimp's, bit for bit (most are taken)."""
+    rng = np.random.default_rng(23)
+    taken = 0
+    for i in range(200):
+        path = tmp_path / f"r{i}.obj"
+        path.write_bytes(_random_obj(rng).encode())
+        fast = read_obj_fast(path, path.read_bytes())
+        if fast is not None:
+            taken += 1
+            assert_same(fast, assimp_only(path, False, monkeypatch))
+    assert taken > 150

@@ -45,7 +45,8 @@ def read_obj_fast(path: Path, data: bytes, *, need_normals: bool = False) -> Raw
 
 
 def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
-    if not data or b"\\" in data or data.count(b"\r") != data.count(b"\r\n"):
+    """read_obj_fast's work; raises Unsupported where the file leaves the subset."""
+    if not data or b"\\" in data or (b"\r" in data and data.count(b"\r") != data.count(b"\r\n")):
         raise Unsupported("empty, line continuations or lone carriage returns")
     raw = np.frombuffer(data, np.uint8)
     starts, ends, kind = _lines(raw)
