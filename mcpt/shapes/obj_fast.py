@@ -12,8 +12,8 @@ one mesh ``defaultobject`` with the invented material ``DefaultMaterial``; its v
 face corners, joined where position, normal and UV agree within 1e-5 (the first corner's values
 kept), numbered in order of first use. Two *different* values within 1e-5 are joined only when
 their hashes meet in a bucket of Assimp's hash map, which cannot be predicted here: such a file
-(:func:`_near_pairs`) goes to Assimp. Otherwise the join is an exact one, done on the file's index
-tables. Numbers are parsed as Assimp parses them (obj_numbers.py).
+(:func:`_near_pairs`) goes to Assimp. Otherwise the join is an exact one (-0.0 = 0.0), done on
+the file's index tables. Numbers are parsed as Assimp parses them (obj_numbers.py).
 """
 
 from __future__ import annotations
@@ -172,9 +172,10 @@ def _face_indices(raw, text, a, z, fields, tables) -> np.ndarray:
 
 
 def _first_equal_rows(table: np.ndarray) -> np.ndarray:
-    """For every row of a float32 table, the index of the first row equal to it as floats.
-    Raises Unsupported if equal rows differ in bits (-0.0 and 0.0: Assimp keeps whichever a
-    face uses first) or for a pair of near rows (:func:`_near_pairs`)."""
+    """For every row of a float32 table, the index of the first row equal to it as floats
+    (-0.0 equals 0.0: libstdc++ hashes both to 0, so Assimp joins them; _joined keeps the bits
+    of the corner that uses the value first, as Assimp does). Raises Unsupported for a pair of
+    near rows (:func:`_near_pairs`)."""
     canon = table + np.float32(0.0)  # -0.0 + 0.0 = +0.0
     bits = np.ascontiguousarray(canon).view(np.uint32)
     h = row_hash(bits)
@@ -190,9 +191,6 @@ def _first_equal_rows(table: np.ndarray) -> np.ndarray:
     rep = order[np.maximum.accumulate(np.where(new, np.arange(len(h)), 0))]
     if (bits[order] != bits[rep]).any():
         raise Unsupported("hash collision")  # different rows, one 64-bit hash: let Assimp join
-    raw_bits = np.ascontiguousarray(table).view(np.uint32)
-    if (raw_bits[order] != raw_bits[rep]).any():
-        raise Unsupported("-0.0 and 0.0")
     if _near_pairs(table[order[new]]):
         raise Unsupported("values within Assimp's join tolerance")
     ids = np.empty(len(h), np.int64)
