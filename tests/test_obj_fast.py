@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcpt.shapes import assimp_file
+from mcpt.shapes import assimp_file, obj_fast
 from mcpt.shapes.obj_fast import read_obj_fast
 
 from .conftest import CORNELL
@@ -169,6 +169,22 @@ def _random_obj(rng: np.random.Generator) -> str:
         v, t = rng.integers(1, nv + 1, 3), rng.integers(1, nt + 1, 3)
         lines.append("f " + " ".join(f"{a}/{b}" if form else f"{a}" for a, b in zip(v, t)))
     return ("\r\n" if rng.integers(2) else "\n").join(lines) + "\n"
+
+
+@pytest.mark.parametrize("block", [40, 997])
+def test_files_read_in_blocks_match_assimp(tmp_path, monkeypatch, block):
+    """Blocks of whole lines (obj_fast.BLOCK_BYTES) cut between a file's v and f lines, inside
+    either, before the first face: the same result."""
+    monkeypatch.setattr(obj_fast, "BLOCK_BYTES", block)
+    rng = np.random.default_rng(block)
+    paths = [ROOT / "scenes/models/spot/spot_triangulated.obj", *CORNELL.glob("*.obj")]
+    for i in range(20):
+        paths.append(tmp_path / f"b{i}.obj")
+        paths[-1].write_bytes(_random_obj(rng).encode())
+    for path in paths:
+        fast = read_obj_fast(path, path.read_bytes())
+        if fast is not None:
+            assert_same(fast, assimp_only(path, False, monkeypatch))
 
 
 def test_random_files_match_assimp(tmp_path, monkeypatch):
