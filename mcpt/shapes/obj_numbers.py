@@ -108,8 +108,9 @@ def _mantissas(text, starts, a, dot, end) -> np.ndarray:
     """float32 ``int part + (float32)(fraction digits * 10^-digits)`` of every token, as
     fast_atoreal_move sums them (``a``: first digit after the sign; ``dot``: the dot's offset or
     -1; ``end``: the mantissa's end; the bytes between are digits, assimp_floats checks). One
-    window of the text per token: the digits (sign and dot zeroed) read as one integer split at
-    the dot by division; mantissas longer than 18 bytes read their two parts separately."""
+    window of the text per token from its first digit: the digits (the dot a zero) read as one
+    integer, split at the dot by division; mantissas longer than 18 bytes read their two parts
+    separately."""
     has_dot = dot >= 0
     int_end = np.where(has_dot, dot, end)
     frac_a = np.where(has_dot, dot + 1, end)
