@@ -47,8 +47,9 @@ def test_models_match_assimp(path, need_normals, monkeypatch):
 
 
 def test_common_models_take_the_fast_path():
-    """Not vacuous: the Cornell box, spot (v/vt), the teapot (-0.0 beside 0.0) are read here."""
-    teapot = [SHARED / "models/teapot.obj"] if (SHARED / "models/teapot.obj").is_file() else []
+    """Not vacuous: the Cornell box, spot (v/vt), the teapot (-0.0 beside 0.0) and suzanne
+    (quads, v//vn) are read here."""
+    teapot = [SHARED / "models" / m for m in ("teapot.obj", "suzanne.obj") if (SHARED / "models" / m).is_file()]
     for path in [*CORNELL.glob("*.obj"), ROOT / "scenes/models/spot/spot_triangulated.obj",
                  ROOT / "scenes/models/icosphere.obj", *teapot]:
         assert read_obj_fast(path, path.read_bytes()) is not None, path
@@ -110,7 +111,8 @@ f 5/1/2 2/2/1 3/3/2
 
 
 @pytest.mark.parametrize("text", [
-    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n",           # a quad: Assimp triangulates
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 2 0\nf 1 2 4 5 3\n",  # a pentagon: Assimp's ear cutting
+    "v 0 0 0\nv 1 0 0\nv 1 1e-9 0\nv 0 1 0\nf 1 2 3 4\n",      # a quad with a straight corner
     "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n",          # materials
     "v 0 0 0\nv 1 0 0\nv 0 1 0\ng part\nf 1 2 3\n",              # groups
     "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n",                   # relative indices
@@ -185,6 +187,38 @@ def test_files_read_in_blocks_match_assimp(tmp_path, monkeypatch, block):
         fast = read_obj_fast(path, path.read_bytes())
         if fast is not None:
             assert_same(fast, assimp_only(path, False, monkeypatch))
+
+
+def test_quads_are_fanned_from_their_concave_corner_as_assimp(tmp_path, monkeypatch):
+    """Convex quads fan from corner 0; a concave (dart-shaped) quad from its reflex corner,
+    wherever it sits in the face; triangles between them stay as they are."""
+    v = ["v 0 0 0", "v 2 0 0", "v 2 2 0", "v 0 2 0", "v 0.5 0.5 0", "v 3 1 0.5"]
+    darts = ["f 1 2 5 4", "f 4 1 2 5", "f 5 4 1 2", "f 2 5 4 1"]  # reflex corner 5 at 2, 3, 0, 1
+    path = tmp_path / "quads.obj"
+    path.write_text("\n".join([*v, "f 1 2 3 4", *darts, "f 2 6 3", "f 1 2 6 3"]) + "\n")
+    fast = read_obj_fast(path, path.read_bytes())
+    assert fast is not None
+    assert_same(fast, assimp_only(path, False, monkeypatch))
+    tris = fast.parts[0].vertices[fast.parts[0].indices.reshape(-1, 3)]
+    assert len(tris) == 13
+    assert all((t[0] == [0.5, 0.5, 0]).all() for t in tris[2:10])  # every dart fans from v 5
+
+
+def test_random_quads_match_assimp(tmp_path, monkeypatch):
+    """Quads of random corners (non-planar, concave, convex): Assimp's fan wherever taken."""
+    rng = np.random.default_rng(4)
+    taken = 0
+    for i in range(40):
+        pts = rng.normal(size=(8, 3)).round(3)
+        faces = [rng.choice(8, 4, replace=False) + 1 for _ in range(6)]
+        path = tmp_path / f"q{i}.obj"
+        path.write_text("\n".join([f"v {a} {b} {c}" for a, b, c in pts]
+                                  + ["f " + " ".join(map(str, f)) for f in faces]) + "\n")
+        fast = read_obj_fast(path, path.read_bytes())
+        if fast is not None:
+            taken += 1
+            assert_same(fast, assimp_only(path, False, monkeypatch))
+    assert taken > 30
 
 
 def test_random_files_match_assimp(tmp_path, monkeypatch):

@@ -2,10 +2,10 @@
 
 Assimp's import of a 10^6-triangle OBJ costs seconds: its parse, then JoinIdenticalVertices. This
 reader covers files made only of ``v`` (three numbers), ``vt`` (two or three), ``vn``, ``f``
-(triangles, every face with the same ``v``, ``v/vt``, ``v//vn`` or ``v/vt/vn`` form, positive
-indices), ``s`` and ``#`` lines and blank lines: the scanned, generated and exported meshes mcpt
-meets. Anything else (``o``/``g``/``usemtl``/``mtllib``, polygons, negative indices, NaN, commas,
-line continuations, ...) returns None and Assimp reads the file as before.
+(triangles and quads, every face with the same ``v``, ``v/vt``, ``v//vn`` or ``v/vt/vn`` form,
+positive indices), ``s`` and ``#`` lines and blank lines: the scanned, generated and exported
+meshes mcpt meets. Anything else (``o``/``g``/``usemtl``/``mtllib``, larger polygons, negative
+indices, NaN, commas, line continuations, ...) returns None and Assimp reads the file as before.
 
 What Assimp 5.4 makes of such a file (code/AssetLib/Obj, code/PostProcessing/JoinVerticesProcess.cpp):
 one mesh ``defaultobject`` with the invented material ``DefaultMaterial``; its vertices are the
@@ -73,7 +73,49 @@ def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
     for j, f in enumerate(scan.fields):
         if (corners[:, j] < 0).any() or (corners[:, j] >= len(tables[f])).any():
             raise Unsupported("face index out of range")  # Assimp reports it (obj.bad_face)
-    return _joined(path, corners, scan.fields, tables, uv_dim, need_normals)
+    sizes = np.concatenate(scan.sizes)
+    tri = None if (sizes == 3).all() else _triangulated(corners[:, 0], sizes, tables[_V])
+    return _joined(path, corners, scan.fields, tables, need_normals, tri)
+
+
+def _triangulated(vertex: np.ndarray, sizes: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """(T, 3) corner numbers of the triangles Assimp's TriangulateProcess makes of triangles and
+    quads (``vertex``: each corner's v index, ``sizes``: each face's corner count): a quad is
+    fanned from its concave corner, the first whose two angles to the opposite diagonal add up
+    to more than pi, else from corner 0. Assimp decides in float32 (normalised edges, acosf):
+    a quad whose decision lies within 1e-4 rad of pi, or with a zero or folded edge, is left to
+    Assimp. (Triangulation runs before JoinIdenticalVertices: corner numbers are unique, so the
+    ngon encoding's swaps never apply.)"""
+    first = np.cumsum(sizes) - sizes
+    n_tri = sizes - 2
+    at = np.cumsum(n_tri) - n_tri
+    out = np.empty((int(n_tri.sum()), 3), np.int64)
+    t = sizes == 3
+    out[at[t]] = first[t, None] + np.arange(3)
+    q0 = first[sizes == 4]
+    p = positions[vertex[q0[:, None] + np.arange(4)]].astype(np.float64)  # (Q, 4, 3)
+    angle = np.empty((len(q0), 4))
+    for i in range(4):
+        v = p[:, i]
+        edges = [p[:, (i + 3) % 4] - v, p[:, (i + 2) % 4] - v, p[:, (i + 1) % 4] - v]
+        length = [np.linalg.norm(e, axis=1) for e in edges]
+        if any((x <= 0).any() for x in length):
+            raise Unsupported("a quad with a zero edge")
+        left, diag, right = (e / x[:, None] for e, x in zip(edges, length))
+        dots = np.stack([np.einsum("ij,ij->i", left, diag), np.einsum("ij,ij->i", right, diag)])
+        if (np.abs(dots) > 1 - 1e-6).any():
+            raise Unsupported("a folded quad")  # acosf of a rounded dot may be NaN in Assimp
+        angle[:, i] = np.arccos(dots[0]) + np.arccos(dots[1])
+    concave = angle > np.pi
+    start = np.where(concave.any(axis=1), np.argmax(concave, axis=1), 0)
+    decided = np.arange(4) <= np.where(concave.any(axis=1), start, 3)[:, None]
+    if (decided & (np.abs(angle - np.pi) < 1e-4)).any():
+        raise Unsupported("a quad Assimp may fan either way")
+    c = q0[:, None] + (start[:, None] + np.arange(4)) % 4
+    qa = at[sizes == 4]
+    out[qa] = c[:, [0, 1, 2]]
+    out[qa + 1] = c[:, [0, 2, 3]]
+    return out
 
 
 class _Scan:
@@ -86,6 +128,7 @@ class _Scan:
         self.uv_dims: set[int] = set()
         self.floats: dict[int, list[np.ndarray]] = {_V: [], _VT: [], _VN: []}
         self.faces: list[np.ndarray] = []
+        self.sizes: list[np.ndarray] = []  # corners of every face (3 or 4)
 
     def block(self, data: bytes) -> None:
         """Parse ``data``, whole lines of the file."""
@@ -98,6 +141,7 @@ class _Scan:
         tok_a, tok_z = token_bounds(text)
         counts = np.diff(np.append(np.searchsorted(tok_a, starts), len(tok_a)))
         self.uv_dims |= _check_counts(counts, kind, len(self.fields or ()))
+        self.sizes.append(counts[kind == _F] // max(len(self.fields or ()), 1))
         tok_kind = np.repeat(kind, counts)
         is_float = tok_kind != _F
         if is_float.any():
@@ -182,10 +226,13 @@ def _face_form(data: bytes, starts, kind, vt_seen: bool) -> tuple[int, ...]:
 
 
 def _check_counts(counts, kind, n_fields: int) -> set[int]:
-    """Checks that v/vn lines hold 3 numbers, f lines 3 corners; returns the vt dimensions."""
-    for k, n in ((_V, 3), (_VN, 3), (_F, 3 * n_fields), (_SKIP, 0)):
+    """Checks that v/vn lines hold 3 numbers, f lines 3 or 4 corners; returns the vt dimensions."""
+    for k, n in ((_V, 3), (_VN, 3), (_SKIP, 0)):
         if (counts[kind == k] != n).any():
             raise Unsupported("numbers per line")
+    face = counts[kind == _F]
+    if ((face != 3 * n_fields) & (face != 4 * n_fields)).any():
+        raise Unsupported("a face of other than 3 or 4 corners")
     uv = {int(d) for d in np.unique(counts[kind == _VT])}
     if not uv <= {2, 3}:
         raise Unsupported("texture coordinate dimension")
@@ -273,8 +320,9 @@ def _near_pairs(rows: np.ndarray) -> bool:
     return False
 
 
-def _joined(path, corners, fields, tables, uv_dim, need_normals) -> RawMesh:
-    """Assimp's one mesh: corners joined where all their values are equal, in first-use order."""
+def _joined(path, corners, fields, tables, need_normals, tri=None) -> RawMesh:
+    """Assimp's one mesh: corners joined where all their values are equal, numbered in file
+    order of first use; ``tri``: (T, 3) corner numbers of the triangles (None: corners 3 by 3)."""
     n = len(corners)
     key = np.zeros(n, np.int64)
     span = 1
@@ -299,7 +347,8 @@ def _joined(path, corners, fields, tables, uv_dim, need_normals) -> RawMesh:
     if _VT in col:
         uvs = tables[_VT][col[_VT]][:, :2].astype(np.float64)
     part = RawPart(label="sub-mesh #0 'defaultobject'", vertices=tables[_V][col[_V]].astype(np.float64),
-                   indices=remap[key], material=0, normals=normals, uvs=uvs)
+                   indices=remap[key] if tri is None else remap[key][tri].ravel(), material=0,
+                   normals=normals, uvs=uvs)
     # Assimp invents "DefaultMaterial" for faces without usemtl (assimp_file._materials gives it
     # no colour: nothing came from a file).
     return RawMesh(path, [part], [MeshMaterial(name="DefaultMaterial")])
