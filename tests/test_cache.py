@@ -239,6 +239,16 @@ def test_hashed_duplicate_search_equals_row_sorting(seed, monkeypatch):
     assert np.array_equal(dedup.first_of_repeated_corners(tris), expected)
 
 
+def test_repeats_across_rotations_found_and_reversals_kept():
+    """The rotation-free hash that skips the exact search when nothing repeats: a rotated copy
+    is a repeat, a reversed one (the other side of the surface) is not."""
+    rng = np.random.default_rng(7)
+    tris = rng.random((1000, 3, 3)).astype(np.float32)
+    assert np.array_equal(dedup.first_of_repeated_corners(np.concatenate([tris, tris[:, ::-1]])), np.arange(2000))
+    both = np.concatenate([tris, np.roll(tris[:10], 1, axis=1)])
+    assert np.array_equal(dedup.first_of_repeated_corners(both), np.arange(1000))
+
+
 def test_the_no_cache_flag_writes_nothing(own_cache, monkeypatch):
     from click.testing import CliRunner
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import obj
+from .obj_fast import read_obj_fast
 from .raw_mesh import MeshError, MeshMaterial, RawMesh, RawPart
 
 #: Name Assimp gives the material it invents for faces without `usemtl` (OBJ) and similar.
@@ -57,6 +58,12 @@ def read_assimp(path: Path, *, need_normals: bool = False) -> RawMesh:
         bad = objf.bad_vertex()
         if bad:
             raise MeshError(bad)
+        # The common subset (v/vt/vn/f triangles) read by numpy as Assimp reads it, 5-10x faster
+        # on 10^6 triangles (issue #23); None for anything else, which Assimp reads.
+        fast = read_obj_fast(path, objf.data, need_normals=need_normals) if objf.data else None
+        if fast is not None:
+            objf.restore_precision(fast.parts)
+            return fast
 
     try:
         scene = assimp.import_file(str(path), flags)

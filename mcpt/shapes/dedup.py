@@ -36,6 +36,11 @@ def first_of_repeated_corners(tris32: np.ndarray) -> np.ndarray:
     w = np.ascontiguousarray(tris32, dtype=np.float32).view(np.uint32)
     if len(w) < 2:
         return np.arange(len(w))
+    s = np.sort(_cyclic_hash(w))
+    if not (s[1:] == s[:-1]).any():
+        # Equal triangles (up to rotation) hash equal: no equal hashes, no repeats. The common
+        # case, without the canonical rotation below (0.25 s at 10^6 triangles, issue #23).
+        return np.arange(len(w))
     c0, c1, c2 = w[:, 0], w[:, 1], w[:, 2]
     # Strictly smaller than the smallest so far: ties keep the first corner (np.argmin's rule).
     r1 = _less(c1, c0)
@@ -44,6 +49,22 @@ def first_of_repeated_corners(tris32: np.ndarray) -> np.ndarray:
     for j, (a, b, c) in enumerate(((c0, c1, c2), (c1, c2, c0), (c2, c0, c1))):
         canon[:, j] = np.where(r2[:, None], c, np.where(r1[:, None], b, a))
     return first_of_rows(canon.reshape(len(w), 9))
+
+
+def _cyclic_hash(w: np.ndarray) -> np.ndarray:
+    """(F,) uint64 hash of (F, 3, 3) corner words that a cyclic rotation of the corners leaves
+    unchanged but a reversal (the other winding) does not: a sum over the three (corner, next
+    corner) pairs of a non-symmetric mix of the two corners' hashes."""
+    h = [row_hash(w[:, j]) for j in range(3)]
+    total = np.zeros(len(w), np.uint64)
+    with np.errstate(over="ignore"):
+        for j in range(3):
+            pair = h[j] * _PRIME ^ h[(j + 1) % 3]
+            pair ^= pair >> np.uint64(31)
+            pair *= _MIX1
+            pair ^= pair >> np.uint64(29)
+            total += pair
+    return total
 
 
 def _less(a: np.ndarray, b: np.ndarray) -> np.ndarray:

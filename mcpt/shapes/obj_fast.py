@@ -1,0 +1,354 @@
+"""A numpy reader for the common OBJ subset that gives what Assimp gives, bit for bit (issue #23).
+
+Assimp's import of a 10^6-triangle OBJ costs seconds: its parse, then JoinIdenticalVertices. This
+reader covers files made only of ``v`` (three numbers), ``vt`` (two or three), ``vn``, ``f``
+(triangles and quads, every face with the same ``v``, ``v/vt``, ``v//vn`` or ``v/vt/vn`` form,
+positive indices), ``s`` and ``#`` lines and blank lines: the scanned, generated and exported
+meshes mcpt meets. Anything else (``o``/``g``/``usemtl``/``mtllib``, larger polygons, negative
+indices, NaN, commas, line continuations, ...) returns None and Assimp reads the file as before.
+
+What Assimp 5.4 makes of such a file (code/AssetLib/Obj, code/PostProcessing/JoinVerticesProcess.cpp):
+one mesh ``defaultobject`` with the invented material ``DefaultMaterial``; its vertices are the
+face corners, joined where position, normal and UV agree within 1e-5 (the first corner's values
+kept), numbered in order of first use. Two *different* values within 1e-5 are joined only when
+their hashes meet in a bucket of Assimp's hash map, which cannot be predicted here: such a file
+(:func:`_near_pairs`) goes to Assimp. Otherwise the join is an exact one (-0.0 = 0.0), done on
+the file's index tables. Numbers are parsed as Assimp parses them (obj_numbers.py).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .dedup import row_hash
+from .obj_numbers import PAD, Unsupported, assimp_floats, digit_values, token_bounds
+from .raw_mesh import MeshMaterial, RawMesh, RawPart
+
+#: Assimp's vertex-join tolerance (JoinVerticesProcess.cpp, ``epsilon``), widened a little so that
+#: float32 rounding in Assimp's own test can never join a pair this check lets through.
+JOIN_EPSILON = 1.1e-5
+_V, _VT, _VN, _F, _SKIP = range(5)
+#: Separators Assimp's OBJ parser skips, and ``/`` between a corner's indices: all become spaces.
+_TO_SPACE = bytes.maketrans(b"\t\r\n/", b"    ")
+_NUMBER_BYTES = b"0123456789.-+eE "
+#: Bytes parsed at a time (whole lines), so that every temporary stays small and in cache:
+#: the 40 MB sphere of issue #23 reads in 1.0-1.1 CPU s with blocks of 256 KB to 2 MB, 1.1-1.25
+#: with 4 MB, 1.45-1.6 in one piece.
+BLOCK_BYTES = 1 << 20
+
+
+def read_obj_fast(path: Path, data: bytes, *, need_normals: bool = False) -> RawMesh | None:
+    """The OBJ ``data`` (the bytes of ``path``) as Assimp's import gives it, or None when the file
+    is outside the subset this module reads exactly (module docstring)."""
+    try:
+        return _read(Path(path), data, need_normals)
+    except Unsupported:
+        return None
+
+
+def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
+    """read_obj_fast's work, a block of whole lines at a time; raises Unsupported where the file
+    leaves the subset."""
+    if not data or b"\\" in data or (b"\r" in data and data.count(b"\r") != data.count(b"\r\n")):
+        raise Unsupported("empty, line continuations or lone carriage returns")
+    scan = _Scan()
+    a = 0
+    while a < len(data):
+        z = data.find(b"\n", a + BLOCK_BYTES)
+        z = len(data) if z < 0 else z + 1
+        scan.block(data[a:z])
+        a = z
+    if scan.fields is None:
+        raise Unsupported("no faces")
+    if len(scan.uv_dims) > 1:
+        raise Unsupported("texture coordinate dimension")
+    uv_dim = max(scan.uv_dims, default=0)
+    tables = {k: np.concatenate(scan.floats[k]).reshape(-1, 3 if k != _VT else max(uv_dim, 1))
+              for k in (_V, _VT, _VN)}
+    if uv_dim == 2:  # Assimp stores 2-D texture coordinates with z = 0
+        tables[_VT] = np.column_stack([tables[_VT], np.zeros(len(tables[_VT]), np.float32)])
+    corners = np.concatenate(scan.faces).reshape(-1, len(scan.fields))
+    for j, f in enumerate(scan.fields):
+        if (corners[:, j] < 0).any() or (corners[:, j] >= len(tables[f])).any():
+            raise Unsupported("face index out of range")  # Assimp reports it (obj.bad_face)
+    sizes = np.concatenate(scan.sizes)
+    tri = None if (sizes == 3).all() else _triangulated(corners[:, 0], sizes, tables[_V])
+    return _joined(path, corners, scan.fields, tables, need_normals, tri)
+
+
+def _triangulated(vertex: np.ndarray, sizes: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """(T, 3) corner numbers of the triangles Assimp's TriangulateProcess makes of triangles and
+    quads (``vertex``: each corner's v index, ``sizes``: each face's corner count): a quad is
+    fanned from its concave corner, the first whose two angles to the opposite diagonal add up
+    to more than pi, else from corner 0. Assimp decides in float32 (normalised edges, acosf):
+    a quad whose decision lies within 1e-4 rad of pi, or with a zero or folded edge, is left to
+    Assimp. (Triangulation runs before JoinIdenticalVertices: corner numbers are unique, so the
+    ngon encoding's swaps never apply.)"""
+    first = np.cumsum(sizes) - sizes
+    n_tri = sizes - 2
+    at = np.cumsum(n_tri) - n_tri
+    out = np.empty((int(n_tri.sum()), 3), np.int64)
+    t = sizes == 3
+    out[at[t]] = first[t, None] + np.arange(3)
+    q0 = first[sizes == 4]
+    p = positions[vertex[q0[:, None] + np.arange(4)]].astype(np.float64)  # (Q, 4, 3)
+    angle = np.empty((len(q0), 4))
+    for i in range(4):
+        v = p[:, i]
+        edges = [p[:, (i + 3) % 4] - v, p[:, (i + 2) % 4] - v, p[:, (i + 1) % 4] - v]
+        length = [np.linalg.norm(e, axis=1) for e in edges]
+        if any((x <= 0).any() for x in length):
+            raise Unsupported("a quad with a zero edge")
+        left, diag, right = (e / x[:, None] for e, x in zip(edges, length))
+        dots = np.stack([np.einsum("ij,ij->i", left, diag), np.einsum("ij,ij->i", right, diag)])
+        if (np.abs(dots) > 1 - 1e-6).any():
+            raise Unsupported("a folded quad")  # acosf of a rounded dot may be NaN in Assimp
+        angle[:, i] = np.arccos(dots[0]) + np.arccos(dots[1])
+    concave = angle > np.pi
+    start = np.where(concave.any(axis=1), np.argmax(concave, axis=1), 0)
+    decided = np.arange(4) <= np.where(concave.any(axis=1), start, 3)[:, None]
+    if (decided & (np.abs(angle - np.pi) < 1e-4)).any():
+        raise Unsupported("a quad Assimp may fan either way")
+    c = q0[:, None] + (start[:, None] + np.arange(4)) % 4
+    qa = at[sizes == 4]
+    out[qa] = c[:, [0, 1, 2]]
+    out[qa + 1] = c[:, [0, 2, 3]]
+    return out
+
+
+class _Scan:
+    """What the blocks of a file give, in file order: the numbers of each table, the corners'
+    indices, the face form (set by the first face), the vt dimensions seen."""
+
+    def __init__(self) -> None:
+        self.fields: tuple[int, ...] | None = None
+        self.vt_seen = False
+        self.uv_dims: set[int] = set()
+        self.floats: dict[int, list[np.ndarray]] = {_V: [], _VT: [], _VN: []}
+        self.faces: list[np.ndarray] = []
+        self.sizes: list[np.ndarray] = []  # corners of every face (3 or 4)
+
+    def block(self, data: bytes) -> None:
+        """Parse ``data``, whole lines of the file."""
+        raw = np.frombuffer(data, np.uint8)
+        starts, ends, kind = _lines(raw)
+        if self.fields is None and (kind == _F).any():
+            self.fields = _face_form(data, starts, kind, self.vt_seen)
+        self.vt_seen |= bool((kind == _VT).any())
+        text = _numbers_only(data, starts, ends, kind)
+        tok_a, tok_z = token_bounds(text)
+        counts = np.diff(np.append(np.searchsorted(tok_a, starts), len(tok_a)))
+        self.uv_dims |= _check_counts(counts, kind, len(self.fields or ()))
+        self.sizes.append(counts[kind == _F] // max(len(self.fields or ()), 1))
+        tok_kind = np.repeat(kind, counts)
+        is_float = tok_kind != _F
+        if is_float.any():
+            fa, fz = tok_a[is_float], tok_z[is_float]
+            lead = text[fa]
+            if ((lead < 48) & (lead != 43) & (lead != 45)).any():
+                # Assimp counts a v/vt number only if it starts with a digit or sign (ObjTools.h
+                # IsNumeric): "v .5 1 2" is two numbers to it, and the vertex is dropped.
+                raise Unsupported("a number starting with '.'")
+            if (raw[np.minimum(fz, len(raw) - 1)] == ord("/")).any():
+                raise Unsupported("'/' in a v/vt/vn line")  # one word to Assimp, two numbers here
+            values = assimp_floats(text, fa, fz)
+            of_kind = tok_kind[is_float]
+            for k in (_V, _VT, _VN):
+                self.floats[k].append(values[of_kind == k])
+        if not is_float.all():
+            self.faces.append(_face_indices(raw, text, tok_a[~is_float], tok_z[~is_float], self.fields))
+
+
+def _lines(raw: np.ndarray):
+    """(starts, ends, kind) of every line; raises Unsupported for a line outside the subset."""
+    nl = np.flatnonzero(raw == 10)
+    starts = np.concatenate([[0], nl + 1])
+    ends = np.concatenate([nl, [len(raw)]])
+    if starts[-1] == len(raw):
+        starts, ends = starts[:-1], ends[:-1]
+    last = len(raw) - 1
+    c0, c1, c2 = (raw[np.minimum(starts + k, last)] for k in range(3))
+    length = ends - starts
+    c1 = np.where(length > 1, c1, 10)
+    c2 = np.where(length > 2, c2, 10)
+    space1, space2 = (c1 == 32) | (c1 == 9), (c2 == 32) | (c2 == 9)
+    v = c0 == ord("v")
+    kind = np.full(len(starts), -1, np.int8)
+    kind[v & space1] = _V
+    kind[v & (c1 == ord("t")) & space2] = _VT
+    kind[v & (c1 == ord("n")) & space2] = _VN
+    kind[(c0 == ord("f")) & space1] = _F
+    blank = (length == 0) | ((length == 1) & (c0 == 13))
+    kind[blank | (c0 == ord("#")) | ((c0 == ord("s")) & space1)] = _SKIP
+    if (kind < 0).any():
+        raise Unsupported("a statement outside v/vt/vn/f/s/#")
+    return starts, ends, kind
+
+
+def _numbers_only(data: bytes, starts, ends, kind) -> np.ndarray:
+    """The file's bytes with every separator made a space and statements' keywords, comments and
+    ``s`` lines blanked, PAD spaces appended; raises Unsupported if anything but number bytes is
+    left. (One translated copy, made writable in place: big temporaries cost page faults.)"""
+    buf = bytearray(data.translate(_TO_SPACE))
+    buf += b" " * PAD
+    text = np.frombuffer(buf, np.uint8)
+    text[starts[kind != _SKIP]] = 32
+    two = starts[(kind == _VT) | (kind == _VN)]
+    text[two + 1] = 32
+    skip = (kind == _SKIP) & (ends > starts)
+    if skip.any():
+        a, n = starts[skip], (ends - starts)[skip]
+        offsets = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        text[np.repeat(a, n) + offsets] = 32
+    if buf.translate(None, _NUMBER_BYTES):
+        raise Unsupported("bytes other than numbers in v/vt/vn/f lines")
+    return text
+
+
+def _face_form(data: bytes, starts, kind, vt_seen: bool) -> tuple[int, ...]:
+    """Which tables a corner indexes, from the first face (in the block ``data``): (_V,),
+    (_V, _VT), (_V, _VN) or all three (every face is checked against it in _face_indices).
+    ``vt_seen``: a vt line came in an earlier block."""
+    first = np.flatnonzero(kind == _F)
+    a = int(starts[first[0]])
+    line = data[a:data.find(b"\n", a) if data.find(b"\n", a) >= 0 else len(data)]
+    corner = line.split()[1].split(b"/")
+    form = {(1,): (_V,), (1, 1): (_V, _VT), (1, 0, 1): (_V, _VN), (1, 1, 1): (_V, _VT, _VN)}
+    key = tuple(int(bool(c)) for c in corner)
+    if key not in form:
+        raise Unsupported("face corner form")
+    if key[1:2] == (1,) and not vt_seen and not (kind[: first[0]] == _VT).any():
+        # Assimp reads "a/b" as a normal index when no vt line came before the face (getFace).
+        raise Unsupported("texture coordinates after the faces")
+    return form[key]
+
+
+def _check_counts(counts, kind, n_fields: int) -> set[int]:
+    """Checks that v/vn lines hold 3 numbers, f lines 3 or 4 corners; returns the vt dimensions."""
+    for k, n in ((_V, 3), (_VN, 3), (_SKIP, 0)):
+        if (counts[kind == k] != n).any():
+            raise Unsupported("numbers per line")
+    face = counts[kind == _F]
+    if ((face != 3 * n_fields) & (face != 4 * n_fields)).any():
+        raise Unsupported("a face of other than 3 or 4 corners")
+    uv = {int(d) for d in np.unique(counts[kind == _VT])}
+    if not uv <= {2, 3}:
+        raise Unsupported("texture coordinate dimension")
+    return uv
+
+
+def _face_indices(raw, text, a, z, fields) -> np.ndarray:
+    """(F*3 * len(fields),) zero-based indices of every corner's fields; raises Unsupported where
+    a face differs in form from the first one (_read checks the ranges)."""
+    k = len(fields)
+    after = raw[np.minimum(z, len(raw) - 1)]
+    after = np.where(z < len(raw), after, 10).reshape(-1, k)
+    slash = ord("/")
+    if (after[:, :-1] != slash).any() or (after[:, -1] == slash).any():
+        raise Unsupported("face corner form")
+    if fields == (_V, _VN):
+        if (raw[np.minimum(z.reshape(-1, k)[:, 0] + 1, len(raw) - 1)] != slash).any():
+            raise Unsupported("face corner form")
+    if (text[a] == ord("0")).any():
+        # Assimp steps over an index by the digit count of its value: "07" is read as 7 twice.
+        raise Unsupported("a face index with a leading zero")
+    return digit_values(text, a, z) - 1
+
+
+def _first_equal_rows(table: np.ndarray) -> np.ndarray:
+    """For every row of a float32 table, the index of the first row equal to it as floats
+    (-0.0 equals 0.0: libstdc++ hashes both to 0, so Assimp joins them; _joined keeps the bits
+    of the corner that uses the value first, as Assimp does). Raises Unsupported for a pair of
+    near rows (:func:`_near_pairs`)."""
+    canon = table + np.float32(0.0)  # -0.0 + 0.0 = +0.0
+    bits = np.ascontiguousarray(canon).view(np.uint32)
+    h = row_hash(bits)
+    s = np.sort(h)
+    if not (s[1:] == s[:-1]).any():  # every row distinct (a generated mesh): no join, no argsort
+        if _near_pairs(table):
+            raise Unsupported("values within Assimp's join tolerance")
+        return np.arange(len(h))
+    order = np.argsort(h, kind="stable")
+    hs = h[order]
+    new = np.ones(len(h), bool)
+    new[1:] = hs[1:] != hs[:-1]
+    rep = order[np.maximum.accumulate(np.where(new, np.arange(len(h)), 0))]
+    if (bits[order] != bits[rep]).any():
+        raise Unsupported("hash collision")  # different rows, one 64-bit hash: let Assimp join
+    if _near_pairs(table[order[new]]):
+        raise Unsupported("values within Assimp's join tolerance")
+    ids = np.empty(len(h), np.int64)
+    ids[order] = rep
+    return ids
+
+
+def _near_pairs(rows: np.ndarray) -> bool:
+    """Whether two distinct rows may lie within JOIN_EPSILON of each other (conservative: a
+    "may" sends the file to Assimp). Two values that close share a cell of width 4 eps in one of
+    the 2^k grids shifted by 0 or 2 eps along each axis (per axis the pair is at most half a
+    2-eps step apart, so it crosses the boundaries of one shift at most); each grid's cells are
+    hashed to one int64 and sorted. A shared cell holding two rows is decided by their distance,
+    one holding more counts as "may"."""
+    m, k = rows.shape
+    if m < 2:
+        return False
+    r = rows.astype(np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        half = np.floor(r * (1.0 / (2 * JOIN_EPSILON)))
+    if not np.isfinite(half).all() or np.abs(half).max() > 2.0**60:
+        return True
+    half = half.astype(np.int64)
+    mult = np.array([1, 0x9E3779B1, 0x85EBCA77], np.int64)[:k]
+    for shift in range(2**k):
+        key = np.zeros(m, np.int64)
+        with np.errstate(over="ignore"):
+            for ax in range(k):
+                key += ((half[:, ax] + ((shift >> ax) & 1)) >> 1) * mult[ax]
+        s = np.sort(key)
+        same = s[1:] == s[:-1]
+        if not same.any():
+            continue
+        if (same[1:] & same[:-1]).any():
+            return True  # three rows in one cell (or a hash clash): let Assimp decide
+        order = np.argsort(key, kind="stable")
+        i = np.flatnonzero(key[order][1:] == key[order][:-1])
+        diff = r[order[i]] - r[order[i + 1]]
+        if (np.einsum("ij,ij->i", diff, diff) <= JOIN_EPSILON**2).any():
+            return True
+    return False
+
+
+def _joined(path, corners, fields, tables, need_normals, tri=None) -> RawMesh:
+    """Assimp's one mesh: corners joined where all their values are equal, numbered in file
+    order of first use; ``tri``: (T, 3) corner numbers of the triangles (None: corners 3 by 3)."""
+    n = len(corners)
+    key = np.zeros(n, np.int64)
+    span = 1
+    for j, f in enumerate(fields):
+        ids = _first_equal_rows(tables[f])
+        if span * len(tables[f]) >= 2**62:
+            raise Unsupported("index tables too large to combine")
+        key += ids[corners[:, j]] * span
+        span *= len(tables[f])
+    first = np.full(int(key.max()) + 1, n, np.int64)
+    np.minimum.at(first, key, np.arange(n))
+    used = np.flatnonzero(first < n)
+    vert_keys = used[np.argsort(first[used], kind="stable")]
+    remap = np.empty(len(first), np.int64)
+    remap[vert_keys] = np.arange(len(vert_keys))
+    rep = corners[first[vert_keys]]  # the corner that first uses each vertex: its values are kept
+    col = dict(zip(fields, rep.T))
+    normals = None
+    if need_normals and _VN in col:
+        normals = tables[_VN][col[_VN]].astype(np.float64)
+    uvs = None
+    if _VT in col:
+        uvs = tables[_VT][col[_VT]][:, :2].astype(np.float64)
+    part = RawPart(label="sub-mesh #0 'defaultobject'", vertices=tables[_V][col[_V]].astype(np.float64),
+                   indices=remap[key] if tri is None else remap[key][tri].ravel(), material=0,
+                   normals=normals, uvs=uvs)
+    # Assimp invents "DefaultMaterial" for faces without usemtl (assimp_file._materials gives it
+    # no colour: nothing came from a file).
+    return RawMesh(path, [part], [MeshMaterial(name="DefaultMaterial")])
