@@ -37,8 +37,8 @@ vec2 rand2_at(int dim) { return vec2(rand_at(dim), rand_at(dim + 1)); }
 #endif
 
 // The numbers of a bounce's BSDF sample: its direction pair, and a third only a rough dielectric
-// reads (reflect or refract): the light choice's number, mcpt/shading/sampler.py says why that
-// is unbiased. Other scenes read nothing more.
+// reads (reflect or refract): + 0, which surface light sampling leaves unread (media's equiangular
+// pick may share it; mcpt/shading/sampler.py says why that is unbiased). Others read nothing more.
 vec3 rand_bsdf(int dim) {
 #if MCPT_MAT_ROUGH_DIELECTRIC
     return vec3(rand2_at(dim + DIM_BSDF_UV), rand_at(dim + DIM_LIGHT_PICK));

@@ -133,6 +133,39 @@ lights:
     assert abs(z) < 4, z
 
 
+
+def test_light_pick_hands_on_its_number_rescaled_within_the_bucket(gl):
+    """Issue #23: light sampling picks the entry with u.x of its 2D sample and passes the rest of
+    u.x, rescaled to [0, 1) within the entry's cdf bucket, on to the light's own sampling (as
+    Mitsuba 3's sample_reuse), so the 2D point stays stratified over all lights together. The
+    rest must be (u - c0) / (c1 - c0) and uniform given the pick, for unequal buckets."""
+    from .test_materials_util import chi2_test, floats, probe
+
+    lamp = "materials:\n  lamp: {albedo: [0, 0, 0], emission: [4, 4, 4]}\n"
+    text = PLANE.replace("{b}", "1").replace("materials:\n", lamp)
+    text = text.replace("lights:\n", "  - file: models/quad.obj\n    material: lamp\n"
+                        "    transform: {translate: [0, 0, 1.5], rotate_deg: [180, 0, 0], scale: 0.5}\nlights:\n")
+    sc = parse_scene(text + "  - {type: point, position: [0.5, 0, 1.0], intensity: [1, 1, 1]}\n",
+                     ROOT / "scenes" / "inline.yaml")
+    lights = load_world(sc).lights
+    assert lights.entries == 3
+    n = 1 << 16
+    u = ((np.arange(n) + 0.5) / n).astype(np.float32)[:, None]  # exact in float32
+    out = probe(gl, "light", u, tbos={"lights": lights.pack()}, light_count=lights.entries)
+    rest = floats(out)[:, 2]
+    table = lights.pack()
+    bounds = np.r_[0.0, table[:2, 1].view(np.float32), 1.0]  # the last bound is +inf in the table
+    pick = np.searchsorted(bounds[1:], u[:, 0], side="right")  # the entry whose bucket holds u
+    np.testing.assert_array_equal(out[:, 0], table[pick, 0])
+    want = (u[:, 0] - bounds[pick]) / (bounds[pick + 1] - bounds[pick])
+    np.testing.assert_allclose(rest, want, atol=2e-6)
+    assert rest.min() >= 0.0 and rest.max() < 1.0
+    for e in range(3):  # uniform given the pick
+        r = rest[pick == e]
+        p, stat, dof = chi2_test(np.bincount((r * 16).astype(int), minlength=16), np.full(16, r.size / 16))
+        assert p > 1e-3, f"entry {e}: chi2 = {stat:.1f} for {dof} dof"
+
+
 BAD = [
     ("  - {type: point, position: [0, 0, 1], intensity: [0, 0, 0]}", "lights.0.intensity", "zero"),
     ("  - {type: point, position: [0, 0, 1], intensity: [-1, 1, 1]}", "lights.0.intensity", "greater than or equal"),

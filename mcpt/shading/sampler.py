@@ -4,21 +4,28 @@ Layout (the shader reads it from the MCPT_DIM* defines, see :func:`layout_define
 
     dim 0, 1                 the film position in the pixel (uniform: box; or the pixel filter's)
     dim 2 + 6 (k - 1) + ...  bounce k = 1..bounces:
-        + 0 light choice,  + 1, + 2 point on the light,  + 3, + 4 BSDF direction,  + 5 roulette
+        + 0 spare (see below),  + 1, + 2 light choice and point on it,  + 3, + 4 BSDF direction,
+        + 5 roulette
     dim 2 + 6 bounces + 0, 1  the point on the lens (thin lens only, issue #22)
 
 i.e. ``DIMS_CAMERA + DIMS_PER_BOUNCE * (k - 1) + DIM_*``. The lens comes last so that a pinhole
 path's numbers stay where they were (a pinhole render is bit-identical with or without it). The
 same six numbers serve every material (glsl/materials.glsl), so no material feature adds
-dimensions: a vertex without a light sample (mirror, glass) leaves + 0..2 unread; glass picks
-reflection or refraction with + 3 (its directions are fixed); plastic picks its lobe with + 3 and
-rescales it to [0, 1) for the diffuse direction ((u - p) / (1 - p) is uniform given u >= p: the
+dimensions: light sampling picks the light with + 1 and places the point on it with + 1 rescaled
+within the pick's cdf bucket and + 2 (Mitsuba 3's sample reuse: the 2D sample then stays stratified
+over all emitters together; a separate pick number left each triangle of a quad light a random
+subset of the net, relMSE x1.02-1.03 at equal spp, issue #23, bench/sampler-quality.md), so + 0 is
+read only by media's equiangular pick and the rough dielectric (below). A vertex without a light
+sample (mirror, glass) leaves + 0..2 unread; glass picks reflection or refraction with + 3 (its
+directions are fixed); plastic picks its lobe with + 3 and rescales it to [0, 1) for the diffuse
+direction ((u - p) / (1 - p) is uniform given u >= p: the
 "sample reuse" of pbrt-v4), which costs a few of the 24 bits, far below what a direction needs. A
 rough dielectric needs a third number after its microfacet normal (reflect or refract by the
-Fresnel of that facet): it reads + 0, the light choice's (glsl/sampler.glsl rand_bsdf). The light
-sample and the BSDF sample are separate terms of the vertex's estimate, each unbiased on its own,
-so their sharing a number changes their correlation, never the expected value; scenes without rough
-glass read nothing more. Because the layout does not depend on the sampling mode either, NEE-only,
+Fresnel of that facet): it reads + 0 (glsl/sampler.glsl rand_bsdf), which surface light sampling
+no longer reads; in a medium, the equiangular light pick may share it, and as the light sample
+and the BSDF sample are separate terms of the vertex's estimate, each unbiased on its own, sharing
+a number changes their correlation, never the expected value; scenes without rough glass read
+nothing more. Because the layout does not depend on the sampling mode either, NEE-only,
 BSDF-only and MIS renders with one seed draw the same BSDF directions (the tests compare their
 variances that way).
 
@@ -53,9 +60,9 @@ import numpy as np
 
 # The layout above, defined once (features.py emits it as defines, glsl/sampler.glsl reads them).
 DIMS_CAMERA = 2        # camera jitter
-DIMS_PER_BOUNCE = 6    # light choice, light point (2), BSDF direction (2), roulette
-DIM_LIGHT_PICK = 0     # offsets inside one bounce's share
-DIM_LIGHT_UV = 1
+DIMS_PER_BOUNCE = 6    # spare, light choice + point (2), BSDF direction (2), roulette
+DIM_LIGHT_PICK = 0     # offsets inside one bounce's share; + 0: media's equiangular light pick
+DIM_LIGHT_UV = 1       # light choice (x, reused) and point on the light
 DIM_BSDF_UV = 3
 DIM_RR = 5
 DIMS_LENS = 2          # thin lens: the point on the aperture, after the last bounce

@@ -5,7 +5,7 @@
 //   mode 0  bsdf_sample(u = p.xyz)     -> (wi.xyz, pdf); wi = 0 when the sample was rejected
 //   mode 1  bsdf_sample(u = p.xyz)     -> (weight.rgb, flags: 1 valid, 2 delta, 4 transmit)
 //   mode 2  bsdf_eval(wi = p.xyz)      -> (f|cos|.rgb, pdf)
-//   mode 3  light_pick(u = p.x)        -> (light index, pmf, 0, 0)
+//   mode 3  light_pick(u = p.x)        -> (light index, pmf, u rescaled in its bucket, 0)
 //   mode 4  sample_triangle_bary(p.xy) -> (b1, b2, 0, 0)
 //   mode 5  texture_rgb(p.z, uv = p.xy) -> (rgb, 0)
 //   mode 6  shading_normal_raw(tri = p.x, bary = p.yz), normalised -> (n.xyz, 0)
@@ -95,9 +95,9 @@ void main() {
     }
 #if MCPT_NEE
     else if (u_mode == 3) {
-        float pmf;
-        int lt = int(light_pick(uintBitsToFloat(p.x), pmf).x);
-        o_out = uvec4(uint(lt), floatBitsToUint(pmf), 0u, 0u);
+        float pmf, rest;
+        int lt = int(light_pick(uintBitsToFloat(p.x), pmf, rest).x);
+        o_out = uvec4(uint(lt), floatBitsToUint(pmf), floatBitsToUint(rest), 0u);
     } else if (u_mode == 4) {
         o_out = uvec4(floatBitsToUint(sample_triangle_bary(uintBitsToFloat(p.xy))), 0u, 0u);
     }
