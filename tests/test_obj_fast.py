@@ -14,8 +14,9 @@ from mcpt.shapes.obj_fast import read_obj_fast
 from .conftest import CORNELL
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = Path("/work/shared") if Path("/work/shared/models").is_dir() else ROOT.parent / "shared"
-MODELS = sorted({*ROOT.glob("scenes/**/*.obj"), *SHARED.glob("models/**/*.obj"), *SHARED.glob("scenes-ref/*/*.obj")})
+# The repository's own OBJs: shipped scenes and tests/data (copies of ../shared models and
+# reference scenes; tests read nothing outside the repository, tests/test_structure.py).
+MODELS = sorted({*ROOT.glob("scenes/**/*.obj"), *ROOT.glob("tests/data/**/*.obj")})
 
 
 def assimp_only(path: Path, need_normals: bool, monkeypatch):
@@ -49,7 +50,7 @@ def test_models_match_assimp(path, need_normals, monkeypatch):
 def test_common_models_take_the_fast_path():
     """Not vacuous: the Cornell box, spot (v/vt), the teapot (-0.0 beside 0.0) and suzanne
     (quads, v//vn) are read here."""
-    teapot = [SHARED / "models" / m for m in ("teapot.obj", "suzanne.obj") if (SHARED / "models" / m).is_file()]
+    teapot = [ROOT / "tests/data/models" / m for m in ("teapot.obj", "suzanne.obj")]
     for path in [*CORNELL.glob("*.obj"), ROOT / "scenes/models/spot/spot_triangulated.obj",
                  ROOT / "scenes/models/icosphere.obj", *teapot]:
         assert read_obj_fast(path, path.read_bytes()) is not None, path
