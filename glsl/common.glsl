@@ -61,6 +61,17 @@ vec3 offset_ray(vec3 p, vec3 n) {
                 abs(p.z) < ORIGIN ? p.z + FLOAT_SCALE * n.z : p_i.z);
 }
 
+// A point p of the octahedral square [-1, 1]^2 unfolded onto the octahedron (Cigolle et al. 2014,
+// "A Survey of Efficient Representations for Independent Unit Vectors"): a direction, not unit
+// (callers normalise). Shading normals and tangents (normals.glsl) and sphere hits (sphere.glsl).
+vec3 oct_unfold(vec2 p) {
+    vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
+    float t = max(-n.z, 0.0);
+    n.x += n.x >= 0.0 ? -t : t;
+    n.y += n.y >= 0.0 ? -t : t;
+    return n;
+}
+
 // Orthonormal basis around a unit normal (Duff et al. 2017, "Building an Orthonormal Basis, Revisited").
 void onb(vec3 n, out vec3 t, out vec3 b) {
     float s = n.z >= 0.0 ? 1.0 : -1.0;

@@ -96,13 +96,16 @@ int env_cell(vec3 d, out int dx, out vec2 f, out float fz) {
 // proportion to their radiance instead of uniformly (the per-cell constant density had 2-6x the
 // variance of the direct light on a diffuse surface under bench/scenes-xml/sky-sun.exr; issue
 // #20). The corners are divided by the largest, so no square below overflows.
-vec4 env_corner_lum(int k, int dx, int W) {
-    vec4 v = vec4(luminance(uintBitsToFloat(texelFetch(u_env_texels, k).rgb)),
-                  luminance(uintBitsToFloat(texelFetch(u_env_texels, k + dx).rgb)),
-                  luminance(uintBitsToFloat(texelFetch(u_env_texels, k + W).rgb)),
-                  luminance(uintBitsToFloat(texelFetch(u_env_texels, k + W + dx).rgb)));
+vec4 env_unit_max(vec4 v) {
     float m = max(max(v.x, v.y), max(v.z, v.w));
     return m > 0.0 ? v / m : v;
+}
+
+vec4 env_corner_lum(int k, int dx, int W) {
+    return env_unit_max(vec4(luminance(uintBitsToFloat(texelFetch(u_env_texels, k).rgb)),
+                             luminance(uintBitsToFloat(texelFetch(u_env_texels, k + dx).rgb)),
+                             luminance(uintBitsToFloat(texelFetch(u_env_texels, k + W).rgb)),
+                             luminance(uintBitsToFloat(texelFetch(u_env_texels, k + W + dx).rgb))));
 }
 
 // The density at f = (fx, fz) of the bilinear warp with corners v (v00, v10, v01, v11), relative
@@ -122,9 +125,8 @@ vec3 env_radiance_pdf(vec3 d, out float pdf) {
     vec3 t10 = uintBitsToFloat(texelFetch(u_env_texels, k + dx).rgb);
     vec3 t01 = uintBitsToFloat(texelFetch(u_env_texels, k + W).rgb);
     vec3 t11 = uintBitsToFloat(texelFetch(u_env_texels, k + W + dx).rgb);
-    vec4 v = vec4(luminance(t00.rgb), luminance(t10), luminance(t01), luminance(t11));
-    float m = max(max(v.x, v.y), max(v.z, v.w));
-    pdf = t00.w * env_bilinear_pdf(vec2(f.x, fz), m > 0.0 ? v / m : v);
+    vec4 v = env_unit_max(vec4(luminance(t00.rgb), luminance(t10), luminance(t01), luminance(t11)));
+    pdf = t00.w * env_bilinear_pdf(vec2(f.x, fz), v);
     return mix(mix(t00.rgb, t10, f.x), mix(t01, t11, f.x), f.y);
 }
 

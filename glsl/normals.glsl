@@ -2,18 +2,14 @@
 // triangle (BVH order): the three corner normals, octahedral-encoded as two 16-bit snorms each
 // (Cigolle et al. 2014, "A Survey of Efficient Representations for Independent Unit Vectors").
 // The buffer and its decoding are compiled only with MCPT_SMOOTH_NORMALS; shading_normal always.
+#include "common.glsl"
 #include "geometry.glsl"
 #include "materials.glsl"
 
 #if MCPT_SMOOTH_NORMALS || MCPT_NORMAL_MAPS
 // Also the tangents' decoding (glsl/normal_map.glsl).
 vec3 oct_decode(uint v) {
-    vec2 p = unpackSnorm2x16(v);
-    vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
-    float t = max(-n.z, 0.0);
-    n.x += n.x >= 0.0 ? -t : t;
-    n.y += n.y >= 0.0 ? -t : t;
-    return n;  // not unit: the interpolation below normalises once
+    return oct_unfold(unpackSnorm2x16(v));  // not unit: the interpolation below normalises once
 }
 #endif
 

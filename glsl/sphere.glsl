@@ -13,14 +13,15 @@
 layout(binding = 15) uniform usamplerBuffer u_spheres;
 
 const int SPHERE_BASE = 0x40000000;  // above every triangle index (2^28 texels at most)
+const int SPHERE_TEXELS = 5;         // mcpt/shapes/sphere.py TEXELS
 
 bool hit_is_sphere(int tri) { return tri >= SPHERE_BASE; }
-uvec4 sphere_texel(int tri, int k) { return texelFetch(u_spheres, 5 * (tri - SPHERE_BASE) + k); }
+uvec4 sphere_texel(int tri, int k) { return texelFetch(u_spheres, SPHERE_TEXELS * (tri - SPHERE_BASE) + k); }
 int sphere_material(int tri) { return int(sphere_texel(tri, 1).w); }
 
 // Centre (double) and radius (float, widened) of sphere k.
 dvec4 sphere_shape(int k) {
-    uvec4 a = texelFetch(u_spheres, 5 * k), b = texelFetch(u_spheres, 5 * k + 1);
+    uvec4 a = texelFetch(u_spheres, SPHERE_TEXELS * k), b = texelFetch(u_spheres, SPHERE_TEXELS * k + 1);
     return dvec4(packDouble2x32(a.xy), packDouble2x32(a.zw), packDouble2x32(b.xy), double(uintBitsToFloat(b.z)));
 }
 
@@ -30,16 +31,8 @@ vec2 sphere_oct_encode(vec3 n) {
     return p;
 }
 
-vec3 sphere_oct_decode(vec2 p) {
-    vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
-    float t = max(-n.z, 0.0);
-    n.x += n.x >= 0.0 ? -t : t;
-    n.y += n.y >= 0.0 ? -t : t;
-    return normalize(n);
-}
-
-// The outward unit normal of a sphere hit.
-vec3 sphere_normal(Hit h) { return sphere_oct_decode(h.bary); }
+// The outward unit normal of a sphere hit (common.glsl oct_unfold).
+vec3 sphere_normal(Hit h) { return normalize(oct_unfold(h.bary)); }
 
 // The geometric normal whose side is the front: outward, inward where the normals are flipped.
 vec3 sphere_front_normal(Hit h) { return sphere_normal(h) * uintBitsToFloat(sphere_texel(h.tri, 2).w); }

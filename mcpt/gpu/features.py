@@ -309,6 +309,6 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
         f = f.replace(float_textures=True)
     if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
         f = f.replace(camera_moves=True)
-    if getattr(world, "n_spheres", 0):
+    if world.n_spheres:
         f = f.replace(spheres=world.n_spheres)
     return f

@@ -42,14 +42,14 @@ from ..shading.normal_map import pack_normal_maps, pack_tangents
 from ..shading.normals import pack_normals
 from ..shading.texture import pack_textures, pack_uvs
 from ..shapes.geometry import pack_triangles
+from ..shapes.sphere import TEXELS as SPHERE_TEXELS
 from ..shapes.world import World
 from .features import Features
 
 # Texels per item of each buffer, so a size error can say how many items would fit.
 ITEMS = {"tris": (3, "triangles"), "nodes": (4, "BVH nodes"), "materials": (2, "materials"),
          "lights": (1, "lights"), "normals": (1, "triangles"), "uvs": (2, "triangles"),
-         "tangents": (1, "triangles"),
-         "spheres": (4, "spheres")}
+         "tangents": (1, "triangles"), "spheres": (SPHERE_TEXELS, "spheres")}
 
 
 @dataclass(frozen=True)

@@ -40,7 +40,7 @@ UNITS = {
     "env_alias": 11,   # environment map alias tables (rows, then each row's cells), 2 entries a texel
     "tangents": 12,    # normal maps: corner tangents, 1 texel per triangle (mcpt/shading/normal_map.py)
     "normal_maps": 13,  # normal maps: texture id and scale, 1 texel per material (ditto)
-    "spheres": 15,     # analytic spheres, 4 texels each (mcpt/shapes/sphere.py)
+    "spheres": 15,     # analytic spheres, 5 texels each (mcpt/shapes/sphere.py)
     "emit_pdf": 14,    # emission textures: pmf / area per triangle, 4 a texel (mcpt/shading/emission_texture.py)
 }
 

@@ -88,21 +88,32 @@ def row_hash(rows: np.ndarray) -> np.ndarray:
     return h
 
 
-def first_of_rows(rows: np.ndarray) -> np.ndarray:
-    """Sorted indices of the first occurrence of every distinct row of an (N, K) integer array."""
+def first_equal(rows: np.ndarray) -> np.ndarray | None:
+    """For every row of an (N, K) integer array, the index of the first row equal to it; None
+    when two different rows share a 64-bit hash (the caller then takes an exact path)."""
     n = len(rows)
     h = row_hash(rows)
     s = np.sort(h)
     if not (s[1:] == s[:-1]).any():  # the common case: all keys differ, so all rows do
         return np.arange(n)
     order = np.argsort(h, kind="stable")  # stable: the first of a run is the earliest occurrence
-    hs, rs = h[order], rows[order]
+    hs = h[order]
     new = np.ones(n, bool)
     new[1:] = hs[1:] != hs[:-1]
-    start = np.maximum.accumulate(np.where(new, np.arange(n), 0))
-    if (rs != rs[start]).any():
+    rep = order[np.maximum.accumulate(np.where(new, np.arange(n), 0))]
+    if (rows[order] != rows[rep]).any():
+        return None
+    ids = np.empty(n, np.int64)
+    ids[order] = rep
+    return ids
+
+
+def first_of_rows(rows: np.ndarray) -> np.ndarray:
+    """Sorted indices of the first occurrence of every distinct row of an (N, K) integer array."""
+    ids = first_equal(rows)
+    if ids is None:
         return _first_of_rows_sorted(rows)  # a hash collision between different rows: exact path
-    return np.sort(order[new])
+    return np.flatnonzero(ids == np.arange(len(rows)))
 
 
 def _first_of_rows_sorted(rows: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .dedup import row_hash
+from .dedup import first_equal
 from .obj_numbers import PAD, Unsupported, assimp_floats, digit_values, token_bounds
 from .raw_mesh import MeshMaterial, RawMesh, RawPart
 
@@ -263,24 +263,11 @@ def _first_equal_rows(table: np.ndarray) -> np.ndarray:
     of the corner that uses the value first, as Assimp does). Raises Unsupported for a pair of
     near rows (:func:`_near_pairs`)."""
     canon = table + np.float32(0.0)  # -0.0 + 0.0 = +0.0
-    bits = np.ascontiguousarray(canon).view(np.uint32)
-    h = row_hash(bits)
-    s = np.sort(h)
-    if not (s[1:] == s[:-1]).any():  # every row distinct (a generated mesh): no join, no argsort
-        if _near_pairs(table):
-            raise Unsupported("values within Assimp's join tolerance")
-        return np.arange(len(h))
-    order = np.argsort(h, kind="stable")
-    hs = h[order]
-    new = np.ones(len(h), bool)
-    new[1:] = hs[1:] != hs[:-1]
-    rep = order[np.maximum.accumulate(np.where(new, np.arange(len(h)), 0))]
-    if (bits[order] != bits[rep]).any():
+    ids = first_equal(np.ascontiguousarray(canon).view(np.uint32))
+    if ids is None:
         raise Unsupported("hash collision")  # different rows, one 64-bit hash: let Assimp join
-    if _near_pairs(table[order[new]]):
+    if _near_pairs(table[ids == np.arange(len(ids))]):  # the distinct rows
         raise Unsupported("values within Assimp's join tolerance")
-    ids = np.empty(len(h), np.int64)
-    ids[order] = rep
     return ids
 
 

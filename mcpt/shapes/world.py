@@ -58,7 +58,7 @@ class World:
     uvs: np.ndarray | None = None       # (F, 3, 2) float32 corner UVs (textured materials)
     textures: list = field(default_factory=list)  # [Texture], indexed by MaterialTable.texture
     tangents: np.ndarray | None = None  # (F, 3, 4) corner tangents + handedness (normal-mapped meshes)
-    spheres: np.ndarray | None = None   # (4 S, 4) uint32 analytic spheres (mcpt/shapes/sphere.py)
+    spheres: np.ndarray | None = None   # (TEXELS S, 4) uint32 analytic spheres (mcpt/shapes/sphere.py)
     sphere_material: np.ndarray | None = None  # (S,) int32 material id of each
 
     @property
@@ -104,15 +104,16 @@ def load_world(scene: Scene) -> World:
     the per-triangle data into its leaf order, derive the lights."""
     t0 = time.perf_counter()
     resolver = MaterialResolver(scene)
-    parts, spheres = [], []
+    parts, spheres, sphere_mi = [], [], []
     for mi in range(len(scene.meshes)):
         ball = _analytic_sphere(scene, mi, resolver) if len(spheres) < MAX_SPHERES else None
         if ball is not None:
             spheres.append(ball)
+            sphere_mi.append(mi)
         else:
             parts.append(_load_part(scene, mi, resolver))
     if spheres and sum(len(p.tris) for p in parts) == 0:  # the triangle buffers are never empty
-        parts += [_load_part(scene, mi, resolver) for mi, _ in spheres]
+        parts += [_load_part(scene, mi, resolver) for mi in sphere_mi]
         spheres = []
     if sum(len(p.tris) for p in parts) == 0:
         raise LoadError(f"{scene.source_path or 'scene'}: the scene has no triangles")
@@ -126,10 +127,7 @@ def load_world(scene: Scene) -> World:
     powers = None
     if any(table.emission_texture >= 0):  # issue #22: textured emitters picked by their real power
         powers = triangle_powers(geometry.areas(tris), tri_mat, uvs, table, resolver.textures)
-    origin = np.asarray(scene.origin, np.float64)
-    balls = [b for _, (b, _) in spheres]
-    lights = _lights(scene, tris, bvh, table.emission[tri_mat], powers,
-                     sphere_bounds(balls, origin) if balls else None)
+    lights = _lights(scene, tris, bvh, table.emission[tri_mat], powers, [b for b, _ in spheres])
     if lights.entries == 0:
         log.warning("%s: the scene has no emitters; the image will be black",
                     scene.source_path or "scene")
@@ -138,15 +136,17 @@ def load_world(scene: Scene) -> World:
              "dropped_duplicate": int(sum(p.dropped_duplicate for p in parts) + repeated),
              "spheres": len(spheres), "materials": len(table.names), "emissive_triangles": lights.count,
              "textures": len(resolver.textures), "load_seconds": t_load, "bvh": bvh.stats()}
-    sphere_mat = np.array([m for _, (_, m) in spheres], np.int32)
-    return World(scene, tris, tri_mat, table, lights, bvh, stats, normals, uvs, resolver.textures,
-                 _corner_tangents(parts, keep, bvh.order),
-                 pack_spheres(balls, sphere_mat, origin) if balls else None, sphere_mat if balls else None)
+    world = World(scene, tris, tri_mat, table, lights, bvh, stats, normals, uvs, resolver.textures,
+                  _corner_tangents(parts, keep, bvh.order))
+    if spheres:
+        world.sphere_material = np.array([m for _, m in spheres], np.int32)
+        world.spheres = pack_spheres([b for b, _ in spheres], world.sphere_material, scene.origin)
+    return world
 
 
-def _analytic_sphere(scene: Scene, mi: int, resolver: MaterialResolver) -> tuple[int, tuple[Sphere, int]] | None:
-    """(mesh index, (sphere, material id)) when mesh ``mi`` is a ``shape: sphere`` that renders as an
-    analytic sphere (mcpt/shapes/sphere.py says when), else None: the entry is tessellated."""
+def _analytic_sphere(scene: Scene, mi: int, resolver: MaterialResolver) -> tuple[Sphere, int] | None:
+    """(sphere, material id) when mesh ``mi`` is a ``shape: sphere`` that renders as an analytic
+    sphere (mcpt/shapes/sphere.py says when), else None: the entry is tessellated."""
     spec = scene.meshes[mi]
     if spec.shape != "sphere":
         return None
@@ -158,21 +158,22 @@ def _analytic_sphere(scene: Scene, mi: int, resolver: MaterialResolver) -> tuple
     if (any(row.emission) or row.emission_texture is not None or row.normal_map is not None
             or row.opacity is not None):
         return None
-    return mi, (ball, int(mid))
+    return ball, int(mid)
 
 
 def _lights(scene: Scene, tris: np.ndarray, bvh: BVH, tri_emission: np.ndarray, powers=None,
-            balls=None) -> Lights:
+            balls: list[Sphere] = ()) -> Lights:
     """Emissive triangles, the scene's punctual lights and its environment (issue #20), in one
-    table; positions relative to the camera like the triangles (``balls``: the box around the
-    analytic spheres, which the scene's bounding radius includes)."""
+    table; positions relative to the camera like the triangles. The scene's bounding radius
+    includes the analytic spheres ``balls``."""
     # The scene's box is the BVH root's: the min/max of the float32 corners, the same values as
     # tris.min(axis=0) over 3F corners, which cost 0.2 s at 10^6 triangles (issue #23).
     lo, hi = bvh.bounds_min[0], bvh.bounds_max[0]
-    if balls is not None:
-        lo, hi = np.minimum(lo, balls[0]), np.maximum(hi, balls[1])
-    radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
     origin = np.asarray(scene.origin, np.float64)
+    if balls:
+        box = sphere_bounds(balls, origin)
+        lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
+    radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
     return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
                         env_power(scene.environment, envmap, radius), envmap, powers)
