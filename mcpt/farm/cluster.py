@@ -217,6 +217,13 @@ def _render_on_cluster(p, opts, acc, control, save_checkpoint) -> dict:
     return timing
 
 
+#: Tasks in flight per worker. Enough to keep each worker busy while results travel back; few
+#: enough that starting and stopping stay quick: submitting all 4 688 tasks of a 300 000-spp job at
+#: once took 5.4 s before the first pass, and cancelling them one by one on Ctrl-C 17 s (measured
+#: on this 2-core machine; tests/test_hardening.py item 10).
+IN_FLIGHT_PER_WORKER = 4
+
+
 def _run(client, p, acc, control, save_checkpoint):
     from distributed import wait
 
@@ -225,19 +232,34 @@ def _run(client, p, acc, control, save_checkpoint):
     job = job_for(p)
     jid = job_id(job)
     tiles = r.tiles
-    todo = ranges(acc.spp, spp, acc.chunk)
-    futures = {}
-    for first, stop in todo:
-        for ti, (_x0, y0, _w, h) in enumerate(tiles):
+    start = acc.spp
+    todo = ranges(start, spp, acc.chunk)
+    queue = iter([(first, stop, ti) for first, stop in todo for ti in range(len(tiles))])
+    pending: dict = {}
+    submitted = 0
+
+    def submit_more():
+        nonlocal submitted
+        # Counted again each time: workers may join a --scheduler cluster while it runs.
+        workers = max(1, len(client.scheduler_info()["workers"]))
+        window = max(len(tiles), IN_FLIGHT_PER_WORKER * workers)
+        if len(pending) >= window:
+            return
+        for first, stop, ti in queue:
             carry = None
-            if first == acc.spp and acc.partial is not None:
+            if first == start and acc.partial is not None:  # only the first range carries one
+                _x0, y0, _w, h = tiles[ti]
                 carry = np.ascontiguousarray(acc.partial[:, y0:y0 + h])
             key = f"mcpt-{jid}-s{seed}-t{ti}-p{first}-{stop}"
             fut = client.submit(render_chunks, job, ti, first, stop, carry, acc.chunk, key=key,
                                 pure=False, retries=3)
-            futures[fut] = (first, stop, ti)
+            pending[fut] = (first, stop, ti)
+            submitted += 1
+            if len(pending) >= window:
+                return
+
     arrived: dict[int, dict[int, list]] = {}
-    pending = dict(futures)
+    submit_more()
     try:
         while pending:
             # Waits of at most 0.5 s, so that a stop signal acts at once (issue #24: it waited for
@@ -248,7 +270,7 @@ def _run(client, p, acc, control, save_checkpoint):
                 done = set()
             if control.signals.stopped and not done:
                 control.tick(acc.spp, 0)
-                return len(futures) - len(pending)
+                return submitted - len(pending)
             for fut in done:
                 first, stop, ti = pending.pop(fut)
                 arrived.setdefault(first, {})[ti] = fut.result()
@@ -266,8 +288,9 @@ def _run(client, p, acc, control, save_checkpoint):
                     if action == "checkpoint":
                         save_checkpoint()
                     elif action == "stop":
-                        return len(futures) - len(pending)
-        return len(futures)
+                        return submitted - len(pending)
+            submit_more()
+        return submitted
     finally:
-        for fut in pending:
-            fut.cancel()
+        if pending:  # one message to the scheduler, not one per task
+            client.cancel(list(pending))
