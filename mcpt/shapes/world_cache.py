@@ -18,6 +18,7 @@ rebuilt only as classes of mcpt (a class name from elsewhere makes the entry unu
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import importlib
 import json
@@ -148,15 +149,21 @@ def versions(packages: tuple[str, ...] = _SOURCE_PACKAGES) -> dict:
             for f in sorted((root / pkg).rglob("*.py")):
                 h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes())
         _source_digests[packages] = h.hexdigest()
+    from .. import __version__
+
+    return {"mcpt": __version__, "source": _source_digests[packages], "numpy": np.__version__,
+            "assimp": _assimp_version()}
+
+
+@functools.cache
+def _assimp_version() -> str:
+    """Assimp's package version, read once per process (the package metadata scan costs ~8 ms)."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
-        assimp = version("assimp-py")
+        return version("assimp-py")
     except PackageNotFoundError:
-        assimp = "none"
-    from .. import __version__
-
-    return {"mcpt": __version__, "source": _source_digests[packages], "numpy": np.__version__, "assimp": assimp}
+        return "none"
 
 
 def _to_entry(world) -> tuple[dict, dict[str, np.ndarray]]:
