@@ -1,0 +1,41 @@
+"""mcpt/shapes/parallel.py: jobs on every core give the results in input order, the first error
+in input order, and MCPT_THREADS=1 runs them in the calling thread."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from mcpt.shapes import parallel
+
+
+def test_results_come_in_input_order_whichever_job_ends_first():
+    def slow_first(i):
+        time.sleep(0.02 if i == 0 else 0.0)  # job 0 ends last
+        return i * i
+
+    assert parallel.ordered(slow_first, range(6)) == [i * i for i in range(6)]
+
+
+def test_the_first_error_in_input_order_is_raised(monkeypatch):
+    monkeypatch.setenv("MCPT_THREADS", "2")
+
+    def fail(i):
+        if i == 3:
+            time.sleep(0.02)
+            raise KeyError(i)
+        if i == 5:
+            raise ValueError(i)  # raised earlier in time, later in order
+        return i
+
+    with pytest.raises(KeyError):
+        parallel.ordered(fail, range(8))
+
+
+def test_one_thread_runs_the_jobs_in_the_calling_thread(monkeypatch):
+    monkeypatch.setenv("MCPT_THREADS", "1")
+    where = parallel.ordered(lambda _: threading.current_thread(), range(3))
+    assert where == [threading.current_thread()] * 3
+    assert parallel.workers() == 1
