@@ -31,10 +31,11 @@ import time
 import zipfile
 import zlib
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
+
+from .parallel import ordered
 
 log = logging.getLogger("mcpt")
 
@@ -45,7 +46,7 @@ _HEADER = "__mcpt_cache__"
 _SUFFIX = ".npz"
 #: A file's remembered digest is trusted only when taken this long after its last change (seconds).
 _RACY_S = 2.0
-#: Entry members at least this large (bytes) have their CRC checked in a thread of their own.
+#: Entry members at least this large (bytes) have their CRC checked on every core (mcpt/parallel.py).
 _THREAD_CRC_BYTES = 1 << 22
 #: Temporary files older than this (seconds) are leftovers of a crashed writer.
 _STALE_TMP_S = 3600.0
@@ -304,13 +305,7 @@ def _check_crcs(mm: mmap.mmap, members: list) -> None:
 
     large = sorted((m for m in members if m[2] - m[1] >= _THREAD_CRC_BYTES), key=lambda m: m[1] - m[2])
     small = [m for m in members if m[2] - m[1] < _THREAD_CRC_BYTES]
-    workers = min(len(large), os.cpu_count() or 1)
-    if workers > 1:
-        with ThreadPoolExecutor(workers, thread_name_prefix="mcpt-crc") as pool:
-            flags = list(pool.map(bad, large))
-    else:
-        flags = [bad(m) for m in large]
-    for member, damaged in zip(large + small, flags + [bad(m) for m in small]):
+    for member, damaged in zip(large + small, ordered(bad, large) + [bad(m) for m in small]):
         if damaged:
             raise ValueError(f"member {member[0].filename!r} is damaged")
 

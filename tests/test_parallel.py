@@ -1,4 +1,4 @@
-"""mcpt/shapes/parallel.py: jobs on every core give the results in input order, the first error
+"""mcpt/parallel.py: jobs on every core give the results in input order, the first error
 in input order, and MCPT_THREADS=1 runs them in the calling thread."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from mcpt.shapes import parallel
+from mcpt import parallel
 
 
 def test_results_come_in_input_order_whichever_job_ends_first():
@@ -39,3 +39,10 @@ def test_one_thread_runs_the_jobs_in_the_calling_thread(monkeypatch):
     where = parallel.ordered(lambda _: threading.current_thread(), range(3))
     assert where == [threading.current_thread()] * 3
     assert parallel.workers() == 1
+
+
+def test_jobs_of_a_job_run_in_its_thread(monkeypatch):
+    """A job that spreads jobs of its own does not wait for the pool it occupies."""
+    monkeypatch.setenv("MCPT_THREADS", "2")
+    inner = parallel.ordered(lambda i: parallel.ordered(lambda j: (i, j), range(3)), range(4))
+    assert inner == [[(i, j) for j in range(3)] for i in range(4)]

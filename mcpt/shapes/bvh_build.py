@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..parallel import ordered
 from .bvh import BVH, DEFAULT_MAX_LEAF, LEAF_FLAG, MAX_STACK, SAH_MAX_TRIANGLES, SAH_STEP_COST, SAH_TRI_COST
-from .parallel import ordered
 
 #: A triangle whose box diagonal exceeds this multiple of the median goes to the large subtree.
 LARGE_TRIANGLE_FACTOR = 8.0

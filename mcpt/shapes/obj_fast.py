@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..parallel import ordered
 from .dedup import first_equal
 from .obj_numbers import PAD, Unsupported, assimp_floats, digit_values, token_bounds
-from .parallel import ordered
 from .raw_mesh import MeshMaterial, RawMesh, RawPart
 
 #: Assimp's vertex-join tolerance (JoinVerticesProcess.cpp, ``epsilon``), widened a little so that
@@ -63,7 +63,7 @@ def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
         a = z
     scan = _Scan(fields)
     # Blocks need nothing from each other: parsed on every core, gathered in file order
-    # (mcpt/shapes/parallel.py), so the result is the sequential one.
+    # (mcpt/parallel.py), so the result is the sequential one.
     for block in ordered(lambda b: _block(data[b[0]:b[1]], fields), bounds):
         scan.add(block)
     if fields is None:

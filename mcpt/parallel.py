@@ -3,8 +3,9 @@
 numpy releases the GIL inside most of its loops (sorting, gathers, ufuncs over large arrays), so
 threads run such jobs side by side. :func:`ordered` returns the jobs' results in the order of
 their inputs, so a caller that joins them in that order gets the sequential result, bit for bit,
-whichever thread ran what. One pool per process, made on first use; jobs must not call
-:func:`ordered` themselves (a job waiting for the pool it occupies could wait forever).
+whichever thread ran what. One pool per process, made on first use; a job that calls
+:func:`ordered` itself runs those jobs in its own thread (waiting for the pool it occupies could
+wait forever).
 ``MCPT_THREADS`` caps the threads (1: everything runs in the calling thread).
 """
 
@@ -17,6 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 _POOL: ThreadPoolExecutor | None = None
 _LOCK = threading.Lock()
+_PREFIX = "mcpt-job"
 
 
 def workers() -> int:
@@ -34,7 +36,7 @@ def _pool() -> ThreadPoolExecutor:
     global _POOL
     with _LOCK:
         if _POOL is None:
-            _POOL = ThreadPoolExecutor(workers(), thread_name_prefix="mcpt-job")
+            _POOL = ThreadPoolExecutor(workers(), thread_name_prefix=_PREFIX)
         return _POOL
 
 
@@ -42,7 +44,8 @@ def ordered(fn: Callable, items: Iterable) -> list:
     """``[fn(x) for x in items]``, the calls spread over the pool's threads; the first exception
     (in input order) is raised after the calls not yet started are cancelled."""
     items = list(items)
-    if len(items) < 2 or workers() == 1:
+    inside = threading.current_thread().name.startswith(_PREFIX)  # a job's own jobs run in it
+    if len(items) < 2 or workers() == 1 or inside:
         return [fn(x) for x in items]
     futures = [_pool().submit(fn, x) for x in items]
     try:
