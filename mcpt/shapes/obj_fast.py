@@ -150,17 +150,28 @@ def _first_face_form(data: bytes) -> tuple[int, ...] | None:
     """The face form (:func:`_face_form`) of the file's first ``f`` line, None without one, known
     before any block is parsed so that blocks need nothing from each other. A line outside the
     subset before it would make the file Unsupported in its own block anyway."""
-    hits = [data.find(p) for p in (b"\nf ", b"\nf\t")]
-    hits = [h + 1 for h in hits if h >= 0] + ([0] if data[:2] in (b"f ", b"f\t") else [])
-    if not hits:
+    at = _first_statement(data, b"f", len(data))
+    if at < 0:
         return None
-    at = min(hits)
     end = data.find(b"\n", at)
-    head = data[:at]
     # A vt line before the first face decides how "a/b" corners read (getFace in Assimp).
-    vt_seen = head.startswith((b"vt ", b"vt\t")) or b"\nvt " in head or b"\nvt\t" in head
+    vt_seen = _first_statement(data, b"vt", at) >= 0
     return _face_form(data[at:len(data) if end < 0 else end], np.zeros(1, np.int64),
                       np.full(1, _F, np.int8), vt_seen)
+
+
+def _first_statement(data: bytes, keyword: bytes, stop: int) -> int:
+    """Where the first line ``keyword`` + space or tab starts before ``stop``, or -1. Found by
+    the keyword's last letter (a one-byte find is a memchr, 10x faster than finding "\\nf ":
+    every line starts after a newline); number lines hold neither f nor t."""
+    last, n = keyword[-1:], len(keyword)
+    q = data.find(last, n - 1, stop)
+    while q >= 0:
+        a = q - n + 1
+        if data[a:q + 1] == keyword and (a == 0 or data[a - 1] == 10) and data[q + 1:q + 2] in (b" ", b"\t"):
+            return a
+        q = data.find(last, q + 1, stop)
+    return -1
 
 
 def _block(data: bytes, fields: tuple[int, ...] | None) -> dict:
