@@ -40,6 +40,17 @@ def _pool() -> ThreadPoolExecutor:
         return _POOL
 
 
+def _forget_pool() -> None:
+    """In a forked child: the parent's pool threads do not exist here, so a job queued on its
+    pool would wait forever; the child makes its own on first use."""
+    global _POOL, _LOCK
+    _POOL, _LOCK = None, threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
+
+
 def ordered(fn: Callable, items: Iterable) -> list:
     """``[fn(x) for x in items]``, the calls spread over the pool's threads; the first exception
     (in input order) is raised after the calls not yet started are cancelled."""

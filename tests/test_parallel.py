@@ -3,6 +3,8 @@ in input order, and MCPT_THREADS=1 runs them in the calling thread."""
 
 from __future__ import annotations
 
+import multiprocessing
+import os
 import threading
 import time
 
@@ -46,3 +48,24 @@ def test_jobs_of_a_job_run_in_its_thread(monkeypatch):
     monkeypatch.setenv("MCPT_THREADS", "2")
     inner = parallel.ordered(lambda i: parallel.ordered(lambda j: (i, j), range(3)), range(4))
     assert inner == [[(i, j) for j in range(3)] for i in range(4)]
+
+
+def _square_in_child(queue):
+    queue.put(parallel.ordered(lambda i: i * i, range(4)))
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork only")
+def test_a_forked_child_makes_its_own_pool(monkeypatch):
+    """A child forked after the pool exists (multiprocessing's default on Linux) cannot use the
+    parent's threads: its jobs would wait forever."""
+    monkeypatch.setenv("MCPT_THREADS", "2")
+    assert parallel.ordered(lambda i: i, range(4)) == [0, 1, 2, 3]  # the parent's pool exists
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_square_in_child, args=(queue,))
+    child.start()
+    child.join(20)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive and queue.get(timeout=1) == [0, 1, 4, 9]
