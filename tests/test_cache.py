@@ -378,3 +378,35 @@ def test_a_scene_with_every_light_type_is_cached_and_an_edited_environment_map_m
     assert cached_world(load_scene(tmp_path / "s.yaml"), load_world).stats["cache"] == "hit"
     (tmp_path / "env.exr").write_bytes((tmp_path / "env.exr").read_bytes() + b"\0")  # another file
     assert cached_world(load_scene(tmp_path / "s.yaml"), load_world).stats["cache"] == "miss"
+
+
+def test_a_flipped_byte_in_any_member_is_refused_with_the_checks_in_threads(own_cache):
+    """Members of 4 MiB and more have their CRC-32 checked in threads (mcpt/cache.py _check_crcs):
+    a damaged byte in any of them, large or small, still makes the entry a miss."""
+    big = 1 << 22
+    arrays = {"a": np.arange(big // 4, dtype=np.uint32), "b": np.ones(big // 4 + 5, np.float32),
+              "c": np.arange(3, dtype=np.int64)}
+    for victim in ("a", "b", "c", None):
+        store = cache.Store("crc")
+        path = store.put("k" * 64, {"victim": victim}, arrays)
+        if victim is not None:
+            data = bytearray(path.read_bytes())
+            payload = arrays[victim].tobytes()
+            at = data.find(payload) + len(payload) // 2  # the middle of that member's payload
+            data[at] ^= 0x40
+            path.write_bytes(bytes(data))
+            assert store.get("k" * 64) is None, victim
+        else:
+            meta, got = store.get("k" * 64)
+            assert all(np.array_equal(got[k], arrays[k]) for k in arrays)
+
+
+def test_the_worst_sah_cost_is_kept_with_the_cached_world(own_cache):
+    """The features' BVH.dense test walks every node; the cached world carries its answer."""
+    scene = load_scene(SPOT_SCENE)
+    built = cached_world(scene, load_world)
+    cache.wait()
+    again = cached_world(scene, load_world)
+    assert again.stats["cache"] == "hit"
+    assert again.bvh.worst_cost is not None
+    assert again.bvh.worst_cost == built.bvh.worst_cost == built.bvh._worst_sah_cost()

@@ -234,3 +234,29 @@ def test_random_files_match_assimp(tmp_path, monkeypatch):
             taken += 1
             assert_same(fast, assimp_only(path, False, monkeypatch))
     assert taken > 150
+
+
+def test_a_face_without_corners_goes_to_assimp(tmp_path):
+    """The face form is read from the first f line before the blocks are parsed; an f line
+    without corners there is outside the subset (it used to raise IndexError)."""
+    path = tmp_path / "empty_face.obj"
+    path.write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf \nf 1 2 3\n")
+    assert read_obj_fast(path, path.read_bytes()) is None
+
+
+@pytest.mark.parametrize("threads", ["1", "2"])
+def test_the_face_form_sees_texture_coordinates_anywhere_before_the_first_face(tmp_path, monkeypatch, threads):
+    """"a/b" corners read as v/vt only after a vt line (Assimp's getFace): a vt line at the very
+    start, or after a tab, counts; one after the first face does not."""
+    monkeypatch.setenv("MCPT_THREADS", threads)
+    monkeypatch.setattr(obj_fast, "BLOCK_BYTES", 16)
+    v = b"v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+    for text, ok in ((b"vt 0 0\n" + v + b"f 1/1 2/1 3/1\n", True),
+                     (v + b"vt\t0 0\nf 1/1 2/1 3/1\n", True),
+                     (v + b"f 1/1 2/1 3/1\nvt 0 0\n", False)):
+        path = tmp_path / "vt.obj"
+        path.write_bytes(text)
+        fast = read_obj_fast(path, text)
+        assert (fast is not None) == ok, text
+        if ok:
+            assert_same(fast, assimp_only(path, False, monkeypatch))

@@ -24,6 +24,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import asdict, dataclass, fields
 
+import numpy as np
+
 from ..scene.animation import camera_moves
 from ..shading import emission_texture, metalrough, microfacet, roughness_texture, specular_weights, thindielectric
 from ..shading.camera import camera_uses
@@ -283,8 +285,11 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
 def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     """The features of a built world (mcpt/shapes/world.py): what its used materials need;
     ``flags``: :func:`derive`'s options, limits and switches by name (e.g. ``loop_limit=``)."""
-    mt, ids = world.materials, world.material_ids
-    used = {mt.types[i] for i in mt.used(ids)}
+    mt = world.materials
+    # The distinct used ids stand for the 10^6 per-triangle ids: every table method below asks
+    # only which ids are used (MaterialTable.used), so one pass over them serves all 16 (issue #23).
+    ids = np.asarray(mt.used(world.material_ids), np.int64)
+    used = {mt.types[i] for i in ids}
     f = derive(
         bounces=world.scene.render.bounces if bounces is None else bounces,
         n_triangles=world.n_triangles, n_emissive=world.lights.entries, material_types=used,

@@ -28,7 +28,7 @@ component (the shader replaces it by 1e-30), starts strictly inside that slab an
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -114,6 +114,9 @@ class BVH:
     depth: int
     max_leaf: int
     build_seconds: float
+    #: :meth:`worst_sah_cost`, remembered once computed: it is kept with the world in the set-up
+    #: cache (mcpt/shapes/world_cache.py), so a warm set-up does not walk 5 * 10^5 nodes again.
+    worst_cost: float | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.nodes.flags.writeable = False
@@ -304,6 +307,11 @@ class BVH:
         """The largest SAH cost of any subtree, relative to its own box: the iterations a ray
         entering that box expects. A cluster whose boxes all overlap shows here even when it
         fills a small part of the root box (then ``sah_cost`` stays small)."""
+        if self.worst_cost is None:
+            object.__setattr__(self, "worst_cost", self._worst_sah_cost())
+        return self.worst_cost
+
+    def _worst_sah_cost(self) -> float:
         area, price = self._sah_terms()
         n = len(area)
         idx = np.arange(n)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..parallel import ordered
 from .bvh import BVH, DEFAULT_MAX_LEAF, LEAF_FLAG, MAX_STACK, SAH_MAX_TRIANGLES, SAH_STEP_COST, SAH_TRI_COST
 
 #: A triangle whose box diagonal exceeds this multiple of the median goes to the large subtree.
@@ -170,7 +171,7 @@ class _Lists:
 
     def __init__(self, centroids: np.ndarray, boxes: np.ndarray | None):
         n_tris = len(centroids)
-        self.ids = np.stack([np.argsort(centroids[:, k]).astype(np.int32) for k in range(3)])
+        self.ids = np.stack(ordered(lambda k: np.argsort(centroids[:, k]).astype(np.int32), range(3)))
         self.order = np.empty(n_tris, np.int32)
         self.goes_right = np.zeros(n_tris, dtype=bool)  # scratch, only read where just written
         self.cent = [np.ascontiguousarray(centroids[:, k]) for k in range(3)]
@@ -219,21 +220,26 @@ class _Lists:
         # The sides read back are random within a node: select through flatnonzero (branch-free)
         # rather than a boolean mask, 5x faster; the halves' masks are runs, cheap to assign.
         left_half = ~right_half
-        for k in range(3):
-            if (node_axis == k).all():
-                continue
+
+        def move(k):  # list k's partition; the lists move independently, on every core
             ids = lists[k]
             r = self.goes_right[ids]
             to_left, to_right = np.flatnonzero(~r), np.flatnonzero(r)
             new = np.empty_like(ids)
             new[left_half] = ids[to_left]
             new[right_half] = ids[to_right]
+            if self.boxes is None:
+                return new, None
+            b = self.boxes[k]
+            nb = np.empty_like(b)
+            nb[:, left_half] = np.take(b, to_left, axis=1)
+            nb[:, right_half] = np.take(b, to_right, axis=1)
+            return new, nb
+
+        moving = [k for k in range(3) if not (node_axis == k).all()]
+        for k, (new, nb) in zip(moving, ordered(move, moving)):
             lists[k] = new
-            if self.boxes is not None:
-                b = self.boxes[k]
-                nb = np.empty_like(b)
-                nb[:, left_half] = np.take(b, to_left, axis=1)
-                nb[:, right_half] = np.take(b, to_right, axis=1)
+            if nb is not None:
                 self.boxes[k] = nb
         return child_count
 
@@ -350,10 +356,14 @@ def _flatten(levels: list[_Level], order: np.ndarray, tris: np.ndarray, n_tris: 
     leaf_start = start[leaf_ids]
     leaf_lo = np.empty((leaf_ids.size, 3))
     leaf_hi = np.empty((leaf_ids.size, 3))
-    for k in range(3):
+
+    def axis_bounds(k):  # the axes on every core
         corner = [tris[:, j, k] for j in range(3)]
-        leaf_lo[:, k] = np.minimum.reduceat(np.minimum(np.minimum(*corner[:2]), corner[2])[order], leaf_start)
-        leaf_hi[:, k] = np.maximum.reduceat(np.maximum(np.maximum(*corner[:2]), corner[2])[order], leaf_start)
+        return (np.minimum.reduceat(np.minimum(np.minimum(*corner[:2]), corner[2])[order], leaf_start),
+                np.maximum.reduceat(np.maximum(np.maximum(*corner[:2]), corner[2])[order], leaf_start))
+
+    for k, (lo_k, hi_k) in enumerate(ordered(axis_bounds, range(3))):
+        leaf_lo[:, k], leaf_hi[:, k] = lo_k, hi_k
     lo = np.empty((n_nodes, 3))
     hi = np.empty((n_nodes, 3))
     lo[leaf_ids], hi[leaf_ids] = _round_out(leaf_lo, leaf_hi)

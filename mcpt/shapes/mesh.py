@@ -169,9 +169,7 @@ def assemble(
         vertices, face_arr, normal_arr = _transform(path, matrix, vertices, face_arr, normal_arr)
 
     # Degenerate triangles, measured in float64 after the transform (what will be rendered).
-    a, b, c = (vertices[face_arr[:, k]] for k in range(3))
-    cross = np.cross(b - a, c - a)
-    twice_area = np.sqrt(np.einsum("ij,ij->i", cross, cross))
+    twice_area = np.sqrt(np.einsum("ij,ij->i", *[_cross_of_edges(vertices, face_arr)] * 2))
     scale = float(np.max(vertices.max(axis=0) - vertices.min(axis=0)))
     degenerate = (twice_area == 0.0) | (twice_area <= DEGENERATE_REL_AREA * scale * scale)
     dropped = int(degenerate.sum())
@@ -207,6 +205,25 @@ def assemble(
         dropped_degenerate=dropped,
         dropped_duplicate=duplicates,
     )
+
+
+def _cross_of_edges(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(F, 3) ``np.cross(b - a, c - a)`` of every triangle, with np.cross's own products and
+    differences (the same bits), an axis at a time: gathers from 1-D columns and 1-D products
+    cost a third of row gathers and np.cross's (F, 3) temporaries (0.2 s at 10^6, issue #23)."""
+    a, b, c = (np.ascontiguousarray(faces[:, k]) for k in range(3))
+    e1, e2 = [], []
+    for k in range(3):
+        col = np.ascontiguousarray(vertices[:, k])
+        ak = col[a]
+        e1.append(col[b] - ak)
+        e2.append(col[c] - ak)
+    out = np.empty((len(faces), 3))
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        np.multiply(e1[i], e2[j], out=out[:, k])
+        out[:, k] -= e1[j] * e2[i]
+    return out
 
 
 def _check_transform(transform: np.ndarray | None) -> np.ndarray | None:

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..parallel import ordered
 from .dedup import first_equal
 from .obj_numbers import PAD, Unsupported, assimp_floats, digit_values, token_bounds
 from .raw_mesh import MeshMaterial, RawMesh, RawPart
@@ -53,14 +54,19 @@ def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
     leaves the subset."""
     if not data or b"\\" in data or (b"\r" in data and data.count(b"\r") != data.count(b"\r\n")):
         raise Unsupported("empty, line continuations or lone carriage returns")
-    scan = _Scan()
-    a = 0
+    fields = _first_face_form(data)
+    bounds, a = [], 0
     while a < len(data):
         z = data.find(b"\n", a + BLOCK_BYTES)
         z = len(data) if z < 0 else z + 1
-        scan.block(data[a:z])
+        bounds.append((a, z))
         a = z
-    if scan.fields is None:
+    scan = _Scan(fields)
+    # Blocks need nothing from each other: parsed on every core, gathered in file order
+    # (mcpt/parallel.py), so the result is the sequential one.
+    for block in ordered(lambda b: _block(data[b[0]:b[1]], fields), bounds):
+        scan.add(block)
+    if fields is None:
         raise Unsupported("no faces")
     if len(scan.uv_dims) > 1:
         raise Unsupported("texture coordinate dimension")
@@ -69,13 +75,13 @@ def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
               for k in (_V, _VT, _VN)}
     if uv_dim == 2:  # Assimp stores 2-D texture coordinates with z = 0
         tables[_VT] = np.column_stack([tables[_VT], np.zeros(len(tables[_VT]), np.float32)])
-    corners = np.concatenate(scan.faces).reshape(-1, len(scan.fields))
-    for j, f in enumerate(scan.fields):
+    corners = np.concatenate(scan.faces).reshape(-1, len(fields))
+    for j, f in enumerate(fields):
         if (corners[:, j] < 0).any() or (corners[:, j] >= len(tables[f])).any():
             raise Unsupported("face index out of range")  # Assimp reports it (obj.bad_face)
     sizes = np.concatenate(scan.sizes)
     tri = None if (sizes == 3).all() else _triangulated(corners[:, 0], sizes, tables[_V])
-    return _joined(path, corners, scan.fields, tables, need_normals, tri)
+    return _joined(path, corners, fields, tables, need_normals, tri)
 
 
 def _triangulated(vertex: np.ndarray, sizes: np.ndarray, positions: np.ndarray) -> np.ndarray:
@@ -120,45 +126,82 @@ def _triangulated(vertex: np.ndarray, sizes: np.ndarray, positions: np.ndarray) 
 
 class _Scan:
     """What the blocks of a file give, in file order: the numbers of each table, the corners'
-    indices, the face form (set by the first face), the vt dimensions seen."""
+    indices, the face corners' form, the vt dimensions seen."""
 
-    def __init__(self) -> None:
-        self.fields: tuple[int, ...] | None = None
-        self.vt_seen = False
+    def __init__(self, fields: tuple[int, ...] | None) -> None:
+        self.fields = fields
         self.uv_dims: set[int] = set()
         self.floats: dict[int, list[np.ndarray]] = {_V: [], _VT: [], _VN: []}
         self.faces: list[np.ndarray] = []
         self.sizes: list[np.ndarray] = []  # corners of every face (3 or 4)
 
-    def block(self, data: bytes) -> None:
-        """Parse ``data``, whole lines of the file."""
-        raw = np.frombuffer(data, np.uint8)
-        starts, ends, kind = _lines(raw)
-        if self.fields is None and (kind == _F).any():
-            self.fields = _face_form(data, starts, kind, self.vt_seen)
-        self.vt_seen |= bool((kind == _VT).any())
-        text = _numbers_only(data, starts, ends, kind)
-        tok_a, tok_z = token_bounds(text)
-        counts = np.diff(np.append(np.searchsorted(tok_a, starts), len(tok_a)))
-        self.uv_dims |= _check_counts(counts, kind, len(self.fields or ()))
-        self.sizes.append(counts[kind == _F] // max(len(self.fields or ()), 1))
-        tok_kind = np.repeat(kind, counts)
-        is_float = tok_kind != _F
-        if is_float.any():
-            fa, fz = tok_a[is_float], tok_z[is_float]
-            lead = text[fa]
-            if ((lead < 48) & (lead != 43) & (lead != 45)).any():
-                # Assimp counts a v/vt number only if it starts with a digit or sign (ObjTools.h
-                # IsNumeric): "v .5 1 2" is two numbers to it, and the vertex is dropped.
-                raise Unsupported("a number starting with '.'")
-            if (raw[np.minimum(fz, len(raw) - 1)] == ord("/")).any():
-                raise Unsupported("'/' in a v/vt/vn line")  # one word to Assimp, two numbers here
-            values = assimp_floats(text, fa, fz)
-            of_kind = tok_kind[is_float]
-            for k in (_V, _VT, _VN):
-                self.floats[k].append(values[of_kind == k])
-        if not is_float.all():
-            self.faces.append(_face_indices(raw, text, tok_a[~is_float], tok_z[~is_float], self.fields))
+    def add(self, block: dict) -> None:
+        """Append the next block's :func:`_block` result."""
+        self.uv_dims |= block["uv_dims"]
+        self.sizes.append(block["sizes"])
+        for k in (_V, _VT, _VN):
+            if k in block:
+                self.floats[k].append(block[k])
+        if block["faces"] is not None:
+            self.faces.append(block["faces"])
+
+
+def _first_face_form(data: bytes) -> tuple[int, ...] | None:
+    """The face form (:func:`_face_form`) of the file's first ``f`` line, None without one, known
+    before any block is parsed so that blocks need nothing from each other. A line outside the
+    subset before it would make the file Unsupported in its own block anyway."""
+    at = _first_statement(data, b"f", len(data))
+    if at < 0:
+        return None
+    end = data.find(b"\n", at)
+    # A vt line before the first face decides how "a/b" corners read (getFace in Assimp).
+    vt_seen = _first_statement(data, b"vt", at) >= 0
+    return _face_form(data[at:len(data) if end < 0 else end], np.zeros(1, np.int64),
+                      np.full(1, _F, np.int8), vt_seen)
+
+
+def _first_statement(data: bytes, keyword: bytes, stop: int) -> int:
+    """Where the first line ``keyword`` + space or tab starts before ``stop``, or -1. Found by
+    the keyword's last letter (a one-byte find is a memchr, 10x faster than finding "\\nf ":
+    every line starts after a newline); number lines hold neither f nor t."""
+    last, n = keyword[-1:], len(keyword)
+    q = data.find(last, n - 1, stop)
+    while q >= 0:
+        a = q - n + 1
+        if data[a:q + 1] == keyword and (a == 0 or data[a - 1] == 10) and data[q + 1:q + 2] in (b" ", b"\t"):
+            return a
+        q = data.find(last, q + 1, stop)
+    return -1
+
+
+def _block(data: bytes, fields: tuple[int, ...] | None) -> dict:
+    """Parse ``data``, whole lines of the file: its vt dimensions, face sizes, numbers of each
+    table and corners' indices (module docstring)."""
+    raw = np.frombuffer(data, np.uint8)
+    starts, ends, kind = _lines(raw)
+    text = _numbers_only(data, starts, ends, kind)
+    tok_a, tok_z = token_bounds(text)
+    counts = np.diff(np.append(np.searchsorted(tok_a, starts), len(tok_a)))
+    out: dict = {"uv_dims": _check_counts(counts, kind, len(fields or ())),
+                 "sizes": counts[kind == _F] // max(len(fields or ()), 1), "faces": None}
+    tok_kind = np.repeat(kind, counts)
+    is_float = tok_kind != _F
+    if is_float.any():
+        fa, fz = tok_a[is_float], tok_z[is_float]
+        lead = text[fa]
+        if ((lead < 48) & (lead != 43) & (lead != 45)).any():
+            # Assimp counts a v/vt number only if it starts with a digit or sign (ObjTools.h
+            # IsNumeric): "v .5 1 2" is two numbers to it, and the vertex is dropped.
+            raise Unsupported("a number starting with '.'")
+        if (raw[np.minimum(fz, len(raw) - 1)] == ord("/")).any():
+            raise Unsupported("'/' in a v/vt/vn line")  # one word to Assimp, two numbers here
+        values = assimp_floats(text, fa, fz)
+        of_kind = tok_kind[is_float]
+        for k in (_V, _VT, _VN):
+            out[k] = values[of_kind == k]
+    if not is_float.all():
+        out["faces"] = _face_indices(raw, text, tok_a[~is_float], tok_z[~is_float], fields)
+    return out
 
 
 def _lines(raw: np.ndarray):
@@ -208,13 +251,16 @@ def _numbers_only(data: bytes, starts, ends, kind) -> np.ndarray:
 
 
 def _face_form(data: bytes, starts, kind, vt_seen: bool) -> tuple[int, ...]:
-    """Which tables a corner indexes, from the first face (in the block ``data``): (_V,),
-    (_V, _VT), (_V, _VN) or all three (every face is checked against it in _face_indices).
-    ``vt_seen``: a vt line came in an earlier block."""
+    """Which tables a corner indexes, from the first face (in ``data``): (_V,), (_V, _VT),
+    (_V, _VN) or all three (every face is checked against it in _face_indices).
+    ``vt_seen``: a vt line came before ``data``."""
     first = np.flatnonzero(kind == _F)
     a = int(starts[first[0]])
     line = data[a:data.find(b"\n", a) if data.find(b"\n", a) >= 0 else len(data)]
-    corner = line.split()[1].split(b"/")
+    words = line.split()
+    if len(words) < 2:
+        raise Unsupported("a face without corners")
+    corner = words[1].split(b"/")
     form = {(1,): (_V,), (1, 1): (_V, _VT), (1, 0, 1): (_V, _VN), (1, 1, 1): (_V, _VT, _VN)}
     key = tuple(int(bool(c)) for c in corner)
     if key not in form:

@@ -26,7 +26,7 @@ from ..scene.material_meaning import MaterialResolver
 from ..shading.emission_texture import triangle_powers
 from ..shading.environment import env_power, load_environment
 from ..shading.light_punctual import punctual_lights
-from ..shading.lights import Lights, build_lights
+from ..shading.lights import LUMINANCE, Lights, build_lights
 from ..shading.materials import MaterialTable
 from ..shading.normal_map import vertex_tangents
 from . import geometry
@@ -121,6 +121,7 @@ def load_world(scene: Scene) -> World:
 
     tris, keep, repeated = _drop_repeated(np.concatenate([p.tris for p in parts]), len(parts))
     bvh = build_bvh(tris)
+    bvh.worst_sah_cost()  # the features ask for it (BVH.dense); now, so the set-up cache keeps it
     tris = tris[bvh.order]
     tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
@@ -175,7 +176,15 @@ def _lights(scene: Scene, tris: np.ndarray, bvh: BVH, tri_emission: np.ndarray, 
         lo, hi = np.minimum(lo, box[0]), np.maximum(hi, box[1])
     radius = 0.5 * float(np.linalg.norm(hi.astype(np.float64) - lo))
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
-    return build_lights(geometry.areas(tris), tri_emission, punctual_lights(scene.lights, origin, radius),
+    if powers is None:
+        # Only emitters' areas are read (a power is luminance x area): measured where the
+        # luminance is not 0, the same values, 10^6 cross products fewer (issue #23).
+        areas = np.zeros(len(tris))
+        lit = np.flatnonzero(tri_emission @ LUMINANCE != 0.0)
+        areas[lit] = geometry.areas(tris[lit])
+    else:
+        areas = geometry.areas(tris)
+    return build_lights(areas, tri_emission, punctual_lights(scene.lights, origin, radius),
                         env_power(scene.environment, envmap, radius), envmap, powers)
 
 
