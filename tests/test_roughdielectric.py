@@ -106,9 +106,10 @@ def test_bsdf_is_the_twin_and_reflection_reciprocal(gl, dist, masking):
             np.testing.assert_allclose(fwd / up[:, 2], back / wo[2], rtol=3e-3, atol=1e-6)
 
 
-def _albedo(wo, eta, alpha, dist, n=1536):
+def _albedo(wo, eta, alpha, dist, n=768):
     """Energy (refracted radiance times eta^2: power) by quadrature over the sphere, cells about the
-    x axis (the lobes of normal incidence off the poles; the horizon on cell edges)."""
+    x axis (the lobes of normal incidence off the poles; the horizon on cell edges). n = 768 is
+    within 3.1e-4 of n = 1536 on every case of the test below (its tolerance: 4e-3), at 1/4 the time."""
     grid = sphere_grid(n, n, 1)
     grid = np.stack([-grid[:, 2], grid[:, 1], grid[:, 0]], 1)
     f = twin(np.asarray(wo), grid, eta, alpha, dist)
