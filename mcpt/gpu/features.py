@@ -31,7 +31,7 @@ from ..shading.lights import light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
-from ..shapes.geometry import shared_vertices
+from ..shapes.geometry import shared_vertices, vertex_bits
 from .limits import (  # noqa: F401 (re-exported: the names callers know features by)
     LLVMPIPE_LOOP_LIMIT,
     MAX_SAMPLES_PER_DRAW,
@@ -238,7 +238,8 @@ class Features:
         defines = self.defines()
         lines = [f"#define {k} {v}" for k, v in defines.items()]
         if defines["MCPT_VERT_COUNT"]:
-            lines.append(vertex_tables(self.compiled.vert_addr, self.compiled.tri_vert_ids))
+            u = self.compiled
+            lines.append(vertex_tables(u.vert_addr, u.tri_vert_ids, u.vert_pos))
         return "\n".join(lines)
 
 
@@ -304,7 +305,8 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     if f.uses.written_out:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
-                      tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+                      tri_vert_ids=tuple(int(i) for i in tv.ravel()),
+                      vert_pos=vertex_bits(world.tris[first:], addr))
     if any(getattr(t, "is_float", False) for t in getattr(world, "textures", ())):  # issue #22
         f = f.replace(float_textures=True)
     if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)
