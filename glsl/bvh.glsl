@@ -37,7 +37,9 @@ const int TRI_EDGE_A[192] = int[](TRI_EDGE_A_TABLE);
 const int TRI_EDGE_B[192] = int[](TRI_EDGE_B_TABLE);
 const int TRI_EDGE_IDS[192] = int[](TRI_EDGE_IDS_TABLE);
 #ifdef TRI_VERT_POS_TABLE
-// ... and the distinct vertices themselves, their float32 bits compiled in (no fetch).
+// ... and the distinct vertices themselves, their float32 bits compiled in (Uses.vert_pos):
+// no texel fetch per vertex and ray (issue #23: with the shared edges below, 1.21x paths per
+// CPU-second on the Cornell box, 1.11x on the 100k sphere's written-out walls; bench/ab.py --cpu).
 const uint TRI_VERT_POS[576] = uint[](TRI_VERT_POS_TABLE);
 #define TRI_VERT_AT(k) uintBitsToFloat(uvec3(TRI_VERT_POS[3 * (k)], TRI_VERT_POS[3 * (k) + 1], \
                                              TRI_VERT_POS[3 * (k) + 2]))
@@ -135,6 +137,8 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
 #define EDGE_LOAD16(k) EDGE_LOAD4(k) EDGE_LOAD4(k + 4) EDGE_LOAD4(k + 8) EDGE_LOAD4(k + 12)
 #define EDGE_LOAD64(k) EDGE_LOAD16(k) EDGE_LOAD16(k + 16) EDGE_LOAD16(k + 32) EDGE_LOAD16(k + 48)
     EDGE_LOAD64(0) EDGE_LOAD64(64) EDGE_LOAD64(128)
+    // Edge reference c: te[c], or -te[~c] when negative (the inner conditions only keep the
+    // constant index of the branch not taken in range; all of it folds at compile time).
 #define TRI_EDGE(c) ((c) >= 0 ? te[(c) >= 0 ? (c) : 0] : -te[(c) >= 0 ? 0 : ~(c)])
 #define TRI_CONST_HIT(idx) intersect_edges(TRI_EDGE(TRI_EDGE_IDS[3 * (idx)]), \
     TRI_EDGE(TRI_EDGE_IDS[3 * (idx) + 1]), TRI_EDGE(TRI_EDGE_IDS[3 * (idx) + 2]), \
