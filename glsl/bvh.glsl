@@ -157,8 +157,13 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     }
 #define TRI_CONST_TEST4(k) TRI_CONST_TEST(k) TRI_CONST_TEST(k + 1) TRI_CONST_TEST(k + 2) TRI_CONST_TEST(k + 3)
 #define TRI_CONST_TEST16(k) TRI_CONST_TEST4(k) TRI_CONST_TEST4(k + 4) TRI_CONST_TEST4(k + 8) TRI_CONST_TEST4(k + 12)
-    // Counters: no loop iterations, a fetch per distinct vertex (or per corner), every triangle.
+    // Counters: no loop iterations, a fetch per distinct vertex (or per corner; none when the
+    // positions are compiled in), every triangle.
+#if defined(TRI_VERT_POS_TABLE) && MCPT_VERT_COUNT > 0
+    BVH_COUNT(0, 0);
+#else
     BVH_COUNT(0, MCPT_VERT_COUNT > 0 ? MCPT_VERT_COUNT : 3 * MCPT_TRI_CONST);
+#endif
     BVH_COUNT_TRIS(MCPT_TRI_CONST);
     TRI_CONST_TEST16(0) TRI_CONST_TEST16(16) TRI_CONST_TEST16(32) TRI_CONST_TEST16(48)  // TRI_CONST_MAX
 #undef TRI_CONST_TEST16
