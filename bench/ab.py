@@ -11,7 +11,9 @@ renders at a time. The ratio is B/A of the summed render seconds, i.e. of paths/
 Scenes: ``cornell`` (scenes/cornell-box.yaml), ``bunny`` (bench/scenes.py: the Stanford bunny in the
 Cornell box), ``bunny-metal`` (scenes/bunny-metal.yaml), ``sphere100k`` / ``sphere10k`` (the shared
 reference folders ``../shared/scenes-ref/cornell-sphere-*``, converted to YAML), or a scene file.
-All are rendered at ``--resolution`` (256x256) with ``--bounces`` (8).
+All are rendered at ``--resolution`` (256x256) with ``--bounces`` (8). ``--cpu``: paths per CPU
+second instead of per wall second (the CPU time of a worker process between its draw's start and
+end; another process on the cores then slows a side far less than it does its wall clock).
 """
 
 from __future__ import annotations
@@ -45,10 +47,13 @@ except ImportError:
     draw = p.renderer.render
 draw(1, 0)  # warm-up: first-draw costs out of the timing
 print(json.dumps({"ready": True, "nodes": p.world.bvh.num_nodes, "bvh": p.features.bvh}), flush=True)
+import time
 for line in sys.stdin:
     spp, seed = (int(x) for x in line.split())
+    c0 = time.process_time()  # all threads of the process: llvmpipe's too
     r = draw(spp, seed)
-    print(json.dumps({"seconds": r.render_seconds, "paths": spp * r.image.shape[0] * r.image.shape[1],
+    print(json.dumps({"seconds": r.render_seconds, "cpu_seconds": time.process_time() - c0,
+                      "paths": spp * r.image.shape[0] * r.image.shape[1],
                       "mean": float(r.image.mean())}), flush=True)
 """
 
@@ -115,7 +120,7 @@ def compare(scene: Path, base_tree: Path, args) -> dict:
         for r in range(args.rounds):
             for side, w in (("A", a), ("B", b)) if r % 2 == 0 else (("B", b), ("A", a)):
                 out = w.render(args.spp, r)
-                secs[side].append(out["seconds"])
+                secs[side].append(out["cpu_seconds" if args.cpu else "seconds"])
                 means[side].append(out["mean"])
                 paths = out["paths"]
     finally:
@@ -134,6 +139,9 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", type=int, default=8, help="passes per turn")
     ap.add_argument("--bounces", type=int, default=8)
     ap.add_argument("--resolution", type=int, nargs=2, default=(256, 256))
+    ap.add_argument("--cpu", action="store_true",
+                    help="compare CPU seconds of the worker processes (llvmpipe's threads included), "
+                         "not wall seconds: steadier where other work shares the cores (issue #23)")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench" / "ab")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)

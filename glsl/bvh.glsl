@@ -31,6 +31,21 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 // the u_tris texel of each distinct vertex, and each triangle's three distinct-vertex ids.
 const int TRI_VERT_ADDR[192] = int[](TRI_VERT_ADDR_TABLE);
 const int TRI_VERT_IDS[192] = int[](TRI_VERT_IDS_TABLE);
+// ... and the distinct edges (shared_edges): each edge's two vertex ids and each triangle's
+// U, V, W as edge k (+e) or ~k (-e).
+const int TRI_EDGE_A[192] = int[](TRI_EDGE_A_TABLE);
+const int TRI_EDGE_B[192] = int[](TRI_EDGE_B_TABLE);
+const int TRI_EDGE_IDS[192] = int[](TRI_EDGE_IDS_TABLE);
+#ifdef TRI_VERT_POS_TABLE
+// ... and the distinct vertices themselves, their float32 bits compiled in (Uses.vert_pos):
+// no texel fetch per vertex and ray (issue #23: with the shared edges below, 1.21x paths per
+// CPU-second on the Cornell box, 1.11x on the 100k sphere's written-out walls; bench/ab.py --cpu).
+const uint TRI_VERT_POS[576] = uint[](TRI_VERT_POS_TABLE);
+#define TRI_VERT_AT(k) uintBitsToFloat(uvec3(TRI_VERT_POS[3 * (k)], TRI_VERT_POS[3 * (k) + 1], \
+                                             TRI_VERT_POS[3 * (k) + 2]))
+#else
+#define TRI_VERT_AT(k) uintBitsToFloat(texelFetch(u_tris, TRI_VERT_ADDR[k]).xyz)
+#endif
 #endif
 // Debug counters (MCPT_COUNTERS, bench/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS
@@ -108,13 +123,27 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     vec3 tv[192];
 #define VERT_LOAD(k) \
     if ((k) < MCPT_VERT_COUNT) \
-        tv[k] = tri_shear(r, p, uintBitsToFloat(texelFetch(u_tris, TRI_VERT_ADDR[k]).xyz));
+        tv[k] = tri_shear(r, p, TRI_VERT_AT(k));
 #define VERT_LOAD4(k) VERT_LOAD(k) VERT_LOAD(k + 1) VERT_LOAD(k + 2) VERT_LOAD(k + 3)
 #define VERT_LOAD16(k) VERT_LOAD4(k) VERT_LOAD4(k + 4) VERT_LOAD4(k + 8) VERT_LOAD4(k + 12)
 #define VERT_LOAD64(k) VERT_LOAD16(k) VERT_LOAD16(k + 16) VERT_LOAD16(k + 32) VERT_LOAD16(k + 48)
     VERT_LOAD64(0) VERT_LOAD64(64) VERT_LOAD64(128)
-#define TRI_CONST_HIT(idx) intersect_sheared(tv[TRI_VERT_IDS[3 * (idx)]], \
-    tv[TRI_VERT_IDS[3 * (idx) + 1]], tv[TRI_VERT_IDS[3 * (idx) + 2]], h.t, t, bary)
+    // Each distinct edge's function once per ray, not once per triangle using it (the Cornell
+    // box: 58 edges for 108 triangle sides); a negation is exact, so the same U, V, W.
+    float te[192];
+#define EDGE_LOAD(k) \
+    if ((k) < TRI_EDGE_COUNT) te[k] = edge_fn(tv[TRI_EDGE_A[k]], tv[TRI_EDGE_B[k]]);
+#define EDGE_LOAD4(k) EDGE_LOAD(k) EDGE_LOAD(k + 1) EDGE_LOAD(k + 2) EDGE_LOAD(k + 3)
+#define EDGE_LOAD16(k) EDGE_LOAD4(k) EDGE_LOAD4(k + 4) EDGE_LOAD4(k + 8) EDGE_LOAD4(k + 12)
+#define EDGE_LOAD64(k) EDGE_LOAD16(k) EDGE_LOAD16(k + 16) EDGE_LOAD16(k + 32) EDGE_LOAD16(k + 48)
+    EDGE_LOAD64(0) EDGE_LOAD64(64) EDGE_LOAD64(128)
+    // Edge reference c: te[c], or -te[~c] when negative (the inner conditions only keep the
+    // constant index of the branch not taken in range; all of it folds at compile time).
+#define TRI_EDGE(c) ((c) >= 0 ? te[(c) >= 0 ? (c) : 0] : -te[(c) >= 0 ? 0 : ~(c)])
+#define TRI_CONST_HIT(idx) intersect_edges(TRI_EDGE(TRI_EDGE_IDS[3 * (idx)]), \
+    TRI_EDGE(TRI_EDGE_IDS[3 * (idx) + 1]), TRI_EDGE(TRI_EDGE_IDS[3 * (idx) + 2]), \
+    tv[TRI_VERT_IDS[3 * (idx)]].z, tv[TRI_VERT_IDS[3 * (idx) + 1]].z, \
+    tv[TRI_VERT_IDS[3 * (idx) + 2]].z, h.t, t, bary)
 #else
 #define TRI_CONST_HIT(idx) intersect_tri(r, p, MCPT_TRI_FIRST + (idx), h.t, t, bary)
 #endif
@@ -128,8 +157,13 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     }
 #define TRI_CONST_TEST4(k) TRI_CONST_TEST(k) TRI_CONST_TEST(k + 1) TRI_CONST_TEST(k + 2) TRI_CONST_TEST(k + 3)
 #define TRI_CONST_TEST16(k) TRI_CONST_TEST4(k) TRI_CONST_TEST4(k + 4) TRI_CONST_TEST4(k + 8) TRI_CONST_TEST4(k + 12)
-    // Counters: no loop iterations, a fetch per distinct vertex (or per corner), every triangle.
+    // Counters: no loop iterations, a fetch per distinct vertex (or per corner; none when the
+    // positions are compiled in), every triangle.
+#if defined(TRI_VERT_POS_TABLE) && MCPT_VERT_COUNT > 0
+    BVH_COUNT(0, 0);
+#else
     BVH_COUNT(0, MCPT_VERT_COUNT > 0 ? MCPT_VERT_COUNT : 3 * MCPT_TRI_CONST);
+#endif
     BVH_COUNT_TRIS(MCPT_TRI_CONST);
     TRI_CONST_TEST16(0) TRI_CONST_TEST16(16) TRI_CONST_TEST16(32) TRI_CONST_TEST16(48)  // TRI_CONST_MAX
 #undef TRI_CONST_TEST16

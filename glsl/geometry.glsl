@@ -66,19 +66,30 @@ vec3 tri_shear(Ray r, RayPre p, vec3 v) {
     return a;
 }
 
-bool intersect_sheared(vec3 A, vec3 B, vec3 C, float tmax, out float t, out vec2 bary) {
-    precise float U = C.x * B.y - C.y * B.x;
-    precise float V = A.x * C.y - A.y * C.x;
-    precise float W = B.x * A.y - B.y * A.x;
+// The edge function of sheared vertices P, Q: e(Q, P) == -e(P, Q) exactly (the same two
+// products, subtracted the other way round), so glsl/bvh.glsl computes an edge shared by two
+// triangles once per ray (issue #23). `precise`: no FMA, or the antisymmetry is lost.
+float edge_fn(vec3 P, vec3 Q) {
+    precise float e = P.x * Q.y - P.y * Q.x;
+    return e;
+}
+
+// The test on the edge functions U = e(C, B), V = e(A, C), W = e(B, A) and the sheared depths.
+bool intersect_edges(float U, float V, float W, float Az, float Bz, float Cz, float tmax,
+                     out float t, out vec2 bary) {
     if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) return false;
     float det = U + V + W;
     if (det == 0.0) return false;
-    float T = U * A.z + V * B.z + W * C.z;
+    float T = U * Az + V * Bz + W * Cz;
     float inv = 1.0 / det;
     t = T * inv;
     if (!(t > 0.0 && t < tmax)) return false;  // also rejects NaN
     bary = vec2(V, W) * inv;
     return true;
+}
+
+bool intersect_sheared(vec3 A, vec3 B, vec3 C, float tmax, out float t, out vec2 bary) {
+    return intersect_edges(edge_fn(C, B), edge_fn(A, C), edge_fn(B, A), A.z, B.z, C.z, tmax, t, bary);
 }
 
 bool intersect_tri_verts(Ray r, RayPre p, vec3 v0, vec3 v1, vec3 v2, float tmax,

@@ -64,8 +64,10 @@ def test_brute_force_shader_path_agrees_with_bvh_path(gl):
 
 
 def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False):
+    """``shared``: False, True (distinct vertices fetched once, edges shared) or "compiled"
+    (their positions compiled in, issue #23)."""
     from mcpt.gpu.features import vertex_tables
-    from mcpt.shapes.geometry import shared_vertices
+    from mcpt.shapes.geometry import shared_vertices, vertex_bits
 
     probe = np.zeros((2 * len(origins), 4), np.uint32)
     probe[0::2, :3] = origins.astype(np.float32).view(np.uint32)
@@ -73,7 +75,8 @@ def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False):
     preamble = f"#define MCPT_BVH 0\n#define MCPT_TRI_CONST {tri_const}"
     if shared:
         addr, ids = shared_vertices(tris32)
-        preamble += f"\n#define MCPT_VERT_COUNT {len(addr)}\n" + vertex_tables(addr, ids.ravel())
+        pos = vertex_bits(tris32, addr) if shared == "compiled" else ()
+        preamble += f"\n#define MCPT_VERT_COUNT {len(addr)}\n" + vertex_tables(addr, ids.ravel(), pos)
     return run_probe(gl, "probe_trace.frag", probe, len(origins), preamble=preamble,
                      key=("brute", tri_const, preamble),
                      tbos={"tris": pack_triangles(tris32, np.zeros(len(tris32), np.int32))},
@@ -112,8 +115,34 @@ def test_written_out_brute_force_agrees_bitwise(gl):
         d = (targets - o) / np.linalg.norm(targets - o, axis=1, keepdims=True)
         loop = _gpu_brute(gl, tris32, o, d, 0)
         assert (loop[:, 1] > 0).mean() > 0.5, n  # the rays really hit something
-        for shared in (False, True):
+        for shared in (False, True, "compiled"):
             assert np.array_equal(loop, _gpu_brute(gl, tris32, o, d, n, shared)), (n, shared)
+
+
+def test_shared_edges_give_each_side_its_edge_function():
+    """mcpt/shapes/geometry.py shared_edges (issue #23): every side of every triangle refers to
+    one distinct undirected edge, with the sign that turns e(lo, hi) into the side's own
+    e(P, Q) (U = e(C, B), V = e(A, C), W = e(B, A)); a closed mesh has half as many edges as
+    sides; vertex_bits gives the distinct vertices' exact float32 bits."""
+    from mcpt.shapes.geometry import shared_edges, shared_vertices, vertex_bits
+
+    mesh = load_mesh(SUZANNE)
+    tris = mesh.vertices[mesh.faces[:60]].astype(np.float32)
+    addr, ids = shared_vertices(tris)
+    edges, signed = shared_edges(ids)
+    assert signed.shape == ids.shape and len(edges) < 3 * len(ids)  # neighbours share edges
+    assert np.all(edges[:, 0] <= edges[:, 1]) and len(np.unique(edges, axis=0)) == len(edges)
+    sides = np.stack([ids[:, [2, 0, 1]], ids[:, [1, 2, 0]]], axis=-1)  # (P, Q) of U, V, W
+    k = np.where(signed >= 0, signed, ~signed)
+    lo_hi = edges[k]
+    forward = (lo_hi[..., 0] == sides[..., 0]) & (lo_hi[..., 1] == sides[..., 1])
+    backward = (lo_hi[..., 0] == sides[..., 1]) & (lo_hi[..., 1] == sides[..., 0])
+    assert np.all(np.where(signed >= 0, forward, backward & (sides[..., 0] != sides[..., 1])))
+    cube = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                     [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    assert len(shared_edges(cube)[0]) == 18  # closed: 36 sides, each edge twice
+    bits = np.array(vertex_bits(tris, addr), np.uint32).reshape(-1, 3)
+    assert np.array_equal(bits, tris.reshape(-1, 3)[addr].view(np.uint32))
 
 
 def test_large_triangles_tested_first_give_the_same_hits(gl):

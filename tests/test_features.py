@@ -116,8 +116,9 @@ def test_samples_per_draw_follow_the_image_size():
     from mcpt.gpu.features import MAX_SAMPLES_PER_DRAW, MIN_SAMPLES_PER_DRAW, PATHS_PER_DRAW, samples_per_draw
 
     assert samples_per_draw(128, 128) == samples_per_draw(256, 256) == MAX_SAMPLES_PER_DRAW == 64
-    assert samples_per_draw(512, 512) == 16
-    assert samples_per_draw(1920, 1080) == MIN_SAMPLES_PER_DRAW  # never fewer than today's 4
+    assert samples_per_draw(512, 512) == samples_per_draw(800, 600) == 64  # issue #23's headline job
+    assert samples_per_draw(1920, 1080) == 16
+    assert samples_per_draw(8192, 8192) == MIN_SAMPLES_PER_DRAW  # never fewer than 4
     for w, h in [(1, 1), (64, 64), (300, 200), (800, 600), (1024, 1024), (4096, 4096)]:
         n = samples_per_draw(w, h)
         assert n & (n - 1) == 0 and MIN_SAMPLES_PER_DRAW <= n <= MAX_SAMPLES_PER_DRAW

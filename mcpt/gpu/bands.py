@@ -1,7 +1,7 @@
 """A draw cut into bands, so that the render loop can stop inside it (issue #24 item 8).
 
-A draw holds up to 2^22 paths (mcpt/gpu/features.py PATHS_PER_DRAW), 2.5-6 s on llvmpipe, and a
-signal or ``--time`` used to wait for the whole of it. Where the render loop may stop
+A draw holds up to 2^25 paths (mcpt/gpu/features.py PATHS_PER_DRAW; 2^22, 2.5-6 s on llvmpipe,
+when this was written), and a signal or ``--time`` used to wait for the whole of it. Where the render loop may stop
 (mcpt/render.py), Renderer.passes draws each draw as several GL draws of at most BAND_PATHS
 paths and asks between them whether to go on; a draw cut short is dropped whole (the target
 keeps the passes before it), so a stop still falls on the draw grid.

@@ -33,7 +33,7 @@ from ..shading.lights import light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
-from ..shapes.geometry import shared_vertices
+from ..shapes.geometry import shared_vertices, vertex_bits
 from .limits import (  # noqa: F401 (re-exported: the names callers know features by)
     LLVMPIPE_LOOP_LIMIT,
     MAX_SAMPLES_PER_DRAW,
@@ -56,13 +56,17 @@ BVH_MIN_TRIANGLES = 64
 # alternating (LP 2 threads, 64 spp, seconds relative to 4 a draw): Cornell box 128x128 16 -> 0.88,
 # 32 -> 0.85; 256x256 64 -> 0.82; 512x512 16 -> 0.88, 64 -> 0.83; 100k sphere 128x128 64 -> 0.89
 # (the gain is per pixel, not a per-draw overhead: it holds at every size). A draw holds at most
-# PATHS_PER_DRAW paths (~3 s at the 100k sphere's 1.3 M paths/s on llvmpipe) unless that would
-# mean fewer than MIN_SAMPLES_PER_DRAW samples; MAX_SAMPLES_PER_DRAW is the read-back chunk
-# (render.py), which a draw never spans. needs_continuation below assumes no draw takes more than
-# the maximum. --time and signals step in between the bands of a draw (mcpt/gpu/bands.py, issue
-# #24 item 8), not only between draws: fewer samples a draw would change every pixel and cost
-# paths/s (Cornell box 256^2 re-measured under load, CPU seconds: 32 a draw x0.92-0.96, 16 x0.90).
-PATHS_PER_DRAW = 1 << 22
+# PATHS_PER_DRAW paths unless that would mean fewer than MIN_SAMPLES_PER_DRAW samples;
+# MAX_SAMPLES_PER_DRAW is the read-back chunk (render.py), which a draw never spans.
+# needs_continuation below assumes no draw takes more than the maximum. --time and signals step in
+# between the bands of a draw (mcpt/gpu/bands.py, issue #24 item 8), not only between draws: fewer
+# samples a draw would change every pixel and cost paths/s (Cornell box 256^2 re-measured under
+# load, CPU seconds: 32 a draw x0.92-0.96, 16 x0.90). Since the bands, the cap is 2^25 paths
+# (was 2^22, ~3 s at the 100k sphere's 1.3 M paths/s), so that 800x600 takes 64 samples a draw
+# (was 8): issue #23's headline job, CPU seconds of 64 spp at 800x600 alternating, 8 a draw
+# 52.8 s, 32 51.3 s, 64 47.4 s (x0.90). The price: --time stops before a draw it foresees ending
+# past the budget, so a large image may end up to one draw (~15 s on llvmpipe) early.
+PATHS_PER_DRAW = 1 << 25
 
 
 def samples_per_draw(width: int, height: int) -> int:
@@ -240,7 +244,8 @@ class Features:
         defines = self.defines()
         lines = [f"#define {k} {v}" for k, v in defines.items()]
         if defines["MCPT_VERT_COUNT"]:
-            lines.append(vertex_tables(self.compiled.vert_addr, self.compiled.tri_vert_ids))
+            u = self.compiled
+            lines.append(vertex_tables(u.vert_addr, u.tri_vert_ids, u.vert_pos))
         return "\n".join(lines)
 
 
@@ -309,7 +314,8 @@ def for_world(world, *, bounces: int | None = None, **flags) -> Features:
     if f.uses.written_out:
         addr, tv = shared_vertices(world.tris[first:])
         f = f.replace(vert_addr=tuple(int(a) + 3 * first for a in addr),
-                      tri_vert_ids=tuple(int(i) for i in tv.ravel()))
+                      tri_vert_ids=tuple(int(i) for i in tv.ravel()),
+                      vert_pos=vertex_bits(world.tris[first:], addr))
     if any(getattr(t, "is_float", False) for t in getattr(world, "textures", ())):  # issue #22
         f = f.replace(float_textures=True)
     if camera_moves(world.scene):  # issue #26 (mcpt/scene/animation.py)

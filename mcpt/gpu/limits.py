@@ -4,7 +4,10 @@ written-out triangle tables of small scenes, the samples one draw may hold (read
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..shapes.bvh import SAH_MAX_TRIANGLES
+from ..shapes.geometry import shared_edges
 
 #: The buffer-texture size mcpt relies on (issue #24): the GL_MAX_TEXTURE_BUFFER_SIZE that llvmpipe
 #: and NVIDIA's drivers report (the GL spec's own minimum, 2^16, holds no real scene). llvmpipe does
@@ -60,13 +63,22 @@ def loop_limit_for(renderer: str) -> int:
     return LLVMPIPE_LOOP_LIMIT if "llvmpipe" in renderer.lower() else 0
 
 
-def vertex_tables(vert_addr, tri_vert_ids) -> str:
+def vertex_tables(vert_addr, tri_vert_ids, vert_pos=()) -> str:
     """The defines of glsl/bvh.glsl's written-out brute-force loop (small scenes): each distinct
     vertex's u_tris texel and each corner's distinct-vertex index (mcpt/shapes/geometry.py
-    shared_vertices), padded to the shader's fixed 3 x TRI_CONST_MAX entries. Data, not feature
-    switches: their names are not MCPT_ defines (those are numbers, :meth:`Features.defines`)."""
+    shared_vertices), and the distinct edges with each triangle's signed edge indices
+    (shared_edges, issue #23), padded to the shader's fixed 3 x TRI_CONST_MAX entries. Data, not
+    feature switches: their names are not MCPT_ defines (those are numbers, :meth:`Features.defines`)."""
     n = 3 * TRI_CONST_MAX
     if len(vert_addr) > n or len(tri_vert_ids) > n:
         raise ValueError(f"at most {TRI_CONST_MAX} triangles have their vertex tables compiled in")
+    edges, signed = shared_edges(np.asarray(tri_vert_ids, np.int64))
     pad = lambda vals: ",".join(map(str, list(vals) + [0] * (n - len(vals))))  # noqa: E731
-    return f"#define TRI_VERT_ADDR_TABLE {pad(vert_addr)}\n#define TRI_VERT_IDS_TABLE {pad(tri_vert_ids)}"
+    pad_u = lambda bits: ",".join(f"{b}u" for b in list(bits) + [0] * (3 * n - len(bits)))  # noqa: E731
+    return "\n".join((f"#define TRI_VERT_ADDR_TABLE {pad(vert_addr)}",
+                      f"#define TRI_VERT_IDS_TABLE {pad(tri_vert_ids)}",
+                      f"#define TRI_EDGE_COUNT {len(edges)}",
+                      f"#define TRI_EDGE_A_TABLE {pad(edges[:, 0])}",
+                      f"#define TRI_EDGE_B_TABLE {pad(edges[:, 1])}",
+                      f"#define TRI_EDGE_IDS_TABLE {pad(signed.ravel())}")
+                     + ((f"#define TRI_VERT_POS_TABLE {pad_u(vert_pos)}",) if vert_pos else ()))

@@ -58,6 +58,7 @@ class Uses:
     bvh_start: int = 0              # with BVH and tri_const: where traversal starts (bvh.py large_tail)
     vert_addr: tuple = ()           # with tri_const: u_tris texel of each distinct vertex
     tri_vert_ids: tuple = ()        # with tri_const: each corner's distinct-vertex index
+    vert_pos: tuple = ()            # with tri_const: each distinct vertex's x, y, z float32 bits
     spheres: int = 0                # analytic spheres, each tested by every ray (mcpt/shapes/sphere.py)
     camera_moves: bool = False      # issue #26: an animated camera, its eye a uniform (camera.glsl)
 

@@ -37,3 +37,37 @@ def shared_vertices(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     return first[order].astype(np.int64), rank[ids.reshape(-1)].reshape(-1, 3).astype(np.int64)
+
+
+def vertex_bits(tris: np.ndarray, addr: np.ndarray) -> tuple[int, ...]:
+    """The float32 bits (x, y, z, ...) of the corners at texels ``addr`` (:func:`shared_vertices`)
+    of (F, 3, 3) triangles: glsl/bvh.glsl compiles them in rather than fetching them (issue #23)."""
+    bits = np.ascontiguousarray(tris, np.float32).view(np.uint32).reshape(-1, 3)
+    return tuple(int(b) for b in bits[np.asarray(addr, np.int64)].ravel())
+
+
+def shared_edges(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct undirected edges of triangles given as (F, 3) distinct-vertex ids
+    (:func:`shared_vertices`), for glsl/bvh.glsl's once-per-ray edge functions (issue #23).
+
+    The watertight test (Woop et al. 2013) of triangle (A, B, C) uses the edge functions
+    U = e(C, B), V = e(A, C), W = e(B, A) of its sheared vertices, e(P, Q) = P.x Q.y - P.y Q.x;
+    e(Q, P) is exactly -e(P, Q) (the same two products, subtracted the other way round), so an edge
+    shared by two triangles is computed once per ray. Returns (verts, signed): ``verts`` (E, 2) each
+    edge's vertex ids (lo <= hi; numbered by first appearance), ``signed`` (F, 3) for U, V, W of each
+    triangle the edge index k meaning +e(lo, hi), or ~k (= -k - 1) meaning -e(lo, hi).
+    """
+    ids = np.asarray(ids, np.int64).reshape(-1, 3)
+    p = ids[:, [2, 0, 1]].ravel()             # U = e(C, B), V = e(A, C), W = e(B, A)
+    q = ids[:, [1, 2, 0]].ravel()
+    lo, hi = np.minimum(p, q), np.maximum(p, q)
+    pairs = np.stack([lo, hi], axis=1)
+    if not len(pairs):
+        return np.zeros((0, 2), np.int64), np.zeros((0, 3), np.int64)
+    _, first, inv = np.unique(pairs, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)                 # number the edges by first appearance
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    k = rank[inv.reshape(-1)]
+    signed = np.where(p <= q, k, ~k).reshape(-1, 3)
+    return pairs[first[order]], signed.astype(np.int64)
