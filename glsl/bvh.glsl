@@ -25,28 +25,6 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 #ifndef MCPT_TRI_FIRST
 #define MCPT_TRI_FIRST 0
 #endif
-#if MCPT_TRI_CONST > 0 && MCPT_VERT_COUNT > 0
-// Small scenes' distinct vertices (mcpt/shapes/geometry.py shared_vertices), padded to
-// 3 x TRI_CONST_MAX = 192 entries (features.py vertex_tables) so every written-out index is in range:
-// the u_tris texel of each distinct vertex, and each triangle's three distinct-vertex ids.
-const int TRI_VERT_ADDR[192] = int[](TRI_VERT_ADDR_TABLE);
-const int TRI_VERT_IDS[192] = int[](TRI_VERT_IDS_TABLE);
-// ... and the distinct edges (shared_edges): each edge's two vertex ids and each triangle's
-// U, V, W as edge k (+e) or ~k (-e).
-const int TRI_EDGE_A[192] = int[](TRI_EDGE_A_TABLE);
-const int TRI_EDGE_B[192] = int[](TRI_EDGE_B_TABLE);
-const int TRI_EDGE_IDS[192] = int[](TRI_EDGE_IDS_TABLE);
-#ifdef TRI_VERT_POS_TABLE
-// ... and the distinct vertices themselves, their float32 bits compiled in (Uses.vert_pos):
-// no texel fetch per vertex and ray (issue #23: with the shared edges below, 1.21x paths per
-// CPU-second on the Cornell box, 1.11x on the 100k sphere's written-out walls; bench/ab.py --cpu).
-const uint TRI_VERT_POS[576] = uint[](TRI_VERT_POS_TABLE);
-#define TRI_VERT_AT(k) uintBitsToFloat(uvec3(TRI_VERT_POS[3 * (k)], TRI_VERT_POS[3 * (k) + 1], \
-                                             TRI_VERT_POS[3 * (k) + 2]))
-#else
-#define TRI_VERT_AT(k) uintBitsToFloat(texelFetch(u_tris, TRI_VERT_ADDR[k]).xyz)
-#endif
-#endif
 // Debug counters (MCPT_COUNTERS, bench/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS
 layout(std430, binding = 1) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
@@ -116,60 +94,49 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     // triangles, same order, same test: the same hits. (Reading the triangles from a uniform
     // array instead of u_tris measured slower; bench/ab.py.)
 #if MCPT_VERT_COUNT > 0
-    // Each distinct vertex is fetched and sheared once per ray, not once per triangle using it
-    // (the Cornell box: 36 triangles, 108 corners, far fewer vertices). The shear is a function
-    // of the vertex alone, computed exactly as intersect_tri_verts does: same bits, so the test
-    // stays watertight and finds the same hits.
-    vec3 tv[192];
-#define VERT_LOAD(k) \
-    if ((k) < MCPT_VERT_COUNT) \
-        tv[k] = tri_shear(r, p, TRI_VERT_AT(k));
-#define VERT_LOAD4(k) VERT_LOAD(k) VERT_LOAD(k + 1) VERT_LOAD(k + 2) VERT_LOAD(k + 3)
-#define VERT_LOAD16(k) VERT_LOAD4(k) VERT_LOAD4(k + 4) VERT_LOAD4(k + 8) VERT_LOAD4(k + 12)
-#define VERT_LOAD64(k) VERT_LOAD16(k) VERT_LOAD16(k + 16) VERT_LOAD16(k + 32) VERT_LOAD16(k + 48)
-    VERT_LOAD64(0) VERT_LOAD64(64) VERT_LOAD64(128)
-    // Each distinct edge's function once per ray, not once per triangle using it (the Cornell
-    // box: 58 edges for 108 triangle sides); a negation is exact, so the same U, V, W.
-    float te[192];
-#define EDGE_LOAD(k) \
-    if ((k) < TRI_EDGE_COUNT) te[k] = edge_fn(tv[TRI_EDGE_A[k]], tv[TRI_EDGE_B[k]]);
-#define EDGE_LOAD4(k) EDGE_LOAD(k) EDGE_LOAD(k + 1) EDGE_LOAD(k + 2) EDGE_LOAD(k + 3)
-#define EDGE_LOAD16(k) EDGE_LOAD4(k) EDGE_LOAD4(k + 4) EDGE_LOAD4(k + 8) EDGE_LOAD4(k + 12)
-#define EDGE_LOAD64(k) EDGE_LOAD16(k) EDGE_LOAD16(k + 16) EDGE_LOAD16(k + 32) EDGE_LOAD16(k + 48)
-    EDGE_LOAD64(0) EDGE_LOAD64(64) EDGE_LOAD64(128)
-    // Edge reference c: te[c], or -te[~c] when negative (the inner conditions only keep the
-    // constant index of the branch not taken in range; all of it folds at compile time).
-#define TRI_EDGE(c) ((c) >= 0 ? te[(c) >= 0 ? (c) : 0] : -te[(c) >= 0 ? 0 : ~(c)])
-#define TRI_CONST_HIT(idx) intersect_edges(TRI_EDGE(TRI_EDGE_IDS[3 * (idx)]), \
-    TRI_EDGE(TRI_EDGE_IDS[3 * (idx) + 1]), TRI_EDGE(TRI_EDGE_IDS[3 * (idx) + 2]), \
-    tv[TRI_VERT_IDS[3 * (idx)]].z, tv[TRI_VERT_IDS[3 * (idx) + 1]].z, \
-    tv[TRI_VERT_IDS[3 * (idx) + 2]].z, h.t, t, bary)
+    // Each distinct vertex is loaded and sheared once per ray, not once per triangle using it
+    // (the Cornell box: 36 triangles, 108 corners, 28 vertices), its float32 bits compiled in: no
+    // texel fetch (issue #23: with the shared edges, 1.21x paths per CPU-second on the Cornell
+    // box, 1.11x on the 100k sphere's written-out walls; bench/ab.py --cpu). The shear is a
+    // function of the vertex alone, computed exactly as intersect_tri_verts does: same bits, so
+    // the test stays watertight and finds the same hits. Then each distinct edge's function once
+    // (58 edges for the 108 triangle sides; a negation is exact, so the same U, V, W), then the
+    // triangles in order. The code is written by the host (mcpt/gpu/limits.py vertex_tables).
+    vec3 tv[MCPT_VERT_COUNT];
+    float te[TRI_EDGE_COUNT];
+    TRI_CONST_VERTS
+    TRI_CONST_EDGES
+#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz) { \
+        float t; vec2 bary; \
+        if (intersect_edges(U, V, W, Az, Bz, Cz, h.t, t, bary)) { \
+            h.t = t; h.tri = MCPT_TRI_FIRST + (idx); h.bary = bary; found = true; \
+            if (any_hit) return true; \
+        } \
+    }
+    // Counters: no loop iterations, the vertices' fetches (none when compiled in), every triangle.
+    BVH_COUNT(0, TRI_VERT_FETCHES);
+    BVH_COUNT_TRIS(MCPT_TRI_CONST);
+    TRI_CONST_TESTS
+#undef TRI_CONST_TEST
 #else
-#define TRI_CONST_HIT(idx) intersect_tri(r, p, MCPT_TRI_FIRST + (idx), h.t, t, bary)
-#endif
 #define TRI_CONST_TEST(idx) \
     if ((idx) < MCPT_TRI_CONST) {  /* a constant: folded away past the count */ \
         float t; vec2 bary; \
-        if (TRI_CONST_HIT(idx)) { \
+        if (intersect_tri(r, p, MCPT_TRI_FIRST + (idx), h.t, t, bary)) { \
             h.t = t; h.tri = MCPT_TRI_FIRST + (idx); h.bary = bary; found = true; \
             if (any_hit) return true; \
         } \
     }
 #define TRI_CONST_TEST4(k) TRI_CONST_TEST(k) TRI_CONST_TEST(k + 1) TRI_CONST_TEST(k + 2) TRI_CONST_TEST(k + 3)
 #define TRI_CONST_TEST16(k) TRI_CONST_TEST4(k) TRI_CONST_TEST4(k + 4) TRI_CONST_TEST4(k + 8) TRI_CONST_TEST4(k + 12)
-    // Counters: no loop iterations, a fetch per distinct vertex (or per corner; none when the
-    // positions are compiled in), every triangle.
-#if defined(TRI_VERT_POS_TABLE) && MCPT_VERT_COUNT > 0
-    BVH_COUNT(0, 0);
-#else
-    BVH_COUNT(0, MCPT_VERT_COUNT > 0 ? MCPT_VERT_COUNT : 3 * MCPT_TRI_CONST);
-#endif
+    // Counters: no loop iterations, a fetch per corner, every triangle.
+    BVH_COUNT(0, 3 * MCPT_TRI_CONST);
     BVH_COUNT_TRIS(MCPT_TRI_CONST);
     TRI_CONST_TEST16(0) TRI_CONST_TEST16(16) TRI_CONST_TEST16(32) TRI_CONST_TEST16(48)  // TRI_CONST_MAX
 #undef TRI_CONST_TEST16
 #undef TRI_CONST_TEST4
 #undef TRI_CONST_TEST
-#undef TRI_CONST_HIT
+#endif
     return found;
 }
 #endif

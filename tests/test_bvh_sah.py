@@ -124,7 +124,8 @@ def test_counters_are_compiled_out_by_default_and_add_up(gl):
     d = f.defines()
     tail, verts = d["MCPT_TRI_CONST"], d["MCPT_VERT_COUNT"]
     assert tail > 0 and 0 < verts <= 3 * tail  # the bunny sits in a box of large triangles
-    assert len(f.compiled.vert_pos) == 3 * verts and "TRI_VERT_POS_TABLE" in f.preamble()
+    assert len(f.compiled.vert_pos) == 3 * verts and "#define TRI_VERT_FETCHES 0" in f.preamble()
+    assert f.preamble().count("tri_shear(r, p, uintBitsToFloat(uvec3(") == verts
     loop_tris = m["triangle_tests_per_ray"] - tail
     assert m["iterations_per_ray"] == pytest.approx(m["node_steps_per_ray"] + loop_tris)
     assert m["fetches_per_ray"] == pytest.approx(4 * m["iterations_per_ray"])

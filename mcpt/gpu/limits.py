@@ -64,21 +64,28 @@ def loop_limit_for(renderer: str) -> int:
 
 
 def vertex_tables(vert_addr, tri_vert_ids, vert_pos=()) -> str:
-    """The defines of glsl/bvh.glsl's written-out brute-force loop (small scenes): each distinct
-    vertex's u_tris texel and each corner's distinct-vertex index (mcpt/shapes/geometry.py
-    shared_vertices), and the distinct edges with each triangle's signed edge indices
-    (shared_edges, issue #23), padded to the shader's fixed 3 x TRI_CONST_MAX entries. Data, not
-    feature switches: their names are not MCPT_ defines (those are numbers, :meth:`Features.defines`)."""
-    n = 3 * TRI_CONST_MAX
-    if len(vert_addr) > n or len(tri_vert_ids) > n:
+    """The written-out brute force of glsl/bvh.glsl ``trace_const`` (small scenes), as code: each
+    distinct vertex loaded and sheared once per ray (mcpt/shapes/geometry.py shared_vertices; its
+    float32 bits compiled in when ``vert_pos`` gives them, else its u_tris texel), each distinct
+    edge function once (shared_edges, issue #23), then each triangle's test on its signed edges
+    and sheared depths, in triangle order. Generated here, not looked up in constant arrays by
+    macros in the shader: Mesa's GLSL compiler spent ~1 s a program folding those lookups (the
+    Cornell box's cold compile 1.9 s against 0.9 s before the positions and edges were compiled
+    in). Data, not feature switches: their names are not MCPT_ defines (:meth:`Features.defines`)."""
+    ids = np.asarray(tri_vert_ids, np.int64).reshape(-1, 3)
+    if len(ids) > TRI_CONST_MAX or len(vert_addr) > 3 * TRI_CONST_MAX:
         raise ValueError(f"at most {TRI_CONST_MAX} triangles have their vertex tables compiled in")
-    edges, signed = shared_edges(np.asarray(tri_vert_ids, np.int64))
-    pad = lambda vals: ",".join(map(str, list(vals) + [0] * (n - len(vals))))  # noqa: E731
-    pad_u = lambda bits: ",".join(f"{b}u" for b in list(bits) + [0] * (3 * n - len(bits)))  # noqa: E731
-    return "\n".join((f"#define TRI_VERT_ADDR_TABLE {pad(vert_addr)}",
-                      f"#define TRI_VERT_IDS_TABLE {pad(tri_vert_ids)}",
-                      f"#define TRI_EDGE_COUNT {len(edges)}",
-                      f"#define TRI_EDGE_A_TABLE {pad(edges[:, 0])}",
-                      f"#define TRI_EDGE_B_TABLE {pad(edges[:, 1])}",
-                      f"#define TRI_EDGE_IDS_TABLE {pad(signed.ravel())}")
-                     + ((f"#define TRI_VERT_POS_TABLE {pad_u(vert_pos)}",) if vert_pos else ()))
+    edges, signed = shared_edges(ids)
+    pos = np.asarray(vert_pos, np.uint32).reshape(-1, 3) if len(vert_pos) else None
+    src = [f"uintBitsToFloat(uvec3({x}u, {y}u, {z}u))" for x, y, z in pos] if pos is not None \
+        else [f"uintBitsToFloat(texelFetch(u_tris, {int(a)}).xyz)" for a in vert_addr]
+    ref = lambda c: f"te[{c}]" if c >= 0 else f"-te[{~c}]"  # noqa: E731 (~c: the edge reversed)
+    return "\n".join((
+        f"#define TRI_VERT_FETCHES {0 if pos is not None else len(vert_addr)}",
+        f"#define TRI_EDGE_COUNT {max(1, len(edges))}",
+        "#define TRI_CONST_VERTS " + " ".join(f"tv[{k}] = tri_shear(r, p, {v});" for k, v in enumerate(src)),
+        "#define TRI_CONST_EDGES " + " ".join(f"te[{k}] = edge_fn(tv[{a}], tv[{b}]);"
+                                              for k, (a, b) in enumerate(edges)),
+        "#define TRI_CONST_TESTS " + " ".join(
+            f"TRI_CONST_TEST({i}, {ref(u)}, {ref(v)}, {ref(w)}, tv[{a}].z, tv[{b}].z, tv[{c}].z)"
+            for i, ((u, v, w), (a, b, c)) in enumerate(zip(signed.tolist(), ids.tolist())))))
