@@ -156,8 +156,7 @@ def _first_face_form(data: bytes) -> tuple[int, ...] | None:
     end = data.find(b"\n", at)
     # A vt line before the first face decides how "a/b" corners read (getFace in Assimp).
     vt_seen = _first_statement(data, b"vt", at) >= 0
-    return _face_form(data[at:len(data) if end < 0 else end], np.zeros(1, np.int64),
-                      np.full(1, _F, np.int8), vt_seen)
+    return _face_form(data[at:len(data) if end < 0 else end], vt_seen)
 
 
 def _first_statement(data: bytes, keyword: bytes, stop: int) -> int:
@@ -250,13 +249,10 @@ def _numbers_only(data: bytes, starts, ends, kind) -> np.ndarray:
     return text
 
 
-def _face_form(data: bytes, starts, kind, vt_seen: bool) -> tuple[int, ...]:
-    """Which tables a corner indexes, from the first face (in ``data``): (_V,), (_V, _VT),
-    (_V, _VN) or all three (every face is checked against it in _face_indices).
-    ``vt_seen``: a vt line came before ``data``."""
-    first = np.flatnonzero(kind == _F)
-    a = int(starts[first[0]])
-    line = data[a:data.find(b"\n", a) if data.find(b"\n", a) >= 0 else len(data)]
+def _face_form(line: bytes, vt_seen: bool) -> tuple[int, ...]:
+    """Which tables a corner indexes, from the first face ``line``: (_V,), (_V, _VT), (_V, _VN)
+    or all three (every face is checked against it in _face_indices). ``vt_seen``: a vt line came
+    before it."""
     words = line.split()
     if len(words) < 2:
         raise Unsupported("a face without corners")
@@ -265,7 +261,7 @@ def _face_form(data: bytes, starts, kind, vt_seen: bool) -> tuple[int, ...]:
     key = tuple(int(bool(c)) for c in corner)
     if key not in form:
         raise Unsupported("face corner form")
-    if key[1:2] == (1,) and not vt_seen and not (kind[: first[0]] == _VT).any():
+    if key[1:2] == (1,) and not vt_seen:
         # Assimp reads "a/b" as a normal index when no vt line came before the face (getFace).
         raise Unsupported("texture coordinates after the faces")
     return form[key]
