@@ -178,10 +178,13 @@ def _lights(scene: Scene, tris: np.ndarray, bvh: BVH, tri_emission: np.ndarray, 
     envmap = load_environment(scene.environment, scene.where("environment", "file"))
     if powers is None:
         # Only emitters' areas are read (a power is luminance x area): measured where the
-        # luminance is not 0, the same values, 10^6 cross products fewer (issue #23).
+        # luminance is not 0, the same values, 10^6 cross products fewer (issue #23). The powers
+        # are then build_lights' own product, computed here once.
+        luminance = tri_emission @ LUMINANCE
         areas = np.zeros(len(tris))
-        lit = np.flatnonzero(tri_emission @ LUMINANCE != 0.0)
+        lit = np.flatnonzero(luminance != 0.0)
         areas[lit] = geometry.areas(tris[lit])
+        powers = luminance * areas
     else:
         areas = geometry.areas(tris)
     return build_lights(areas, tri_emission, punctual_lights(scene.lights, origin, radius),
