@@ -106,18 +106,36 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     float te[TRI_EDGE_COUNT];
     TRI_CONST_VERTS
     TRI_CONST_EDGES
-#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz) { \
-        float t; vec2 bary; \
-        if (intersect_edges(U, V, W, Az, Bz, Cz, h.t, t, bary)) { \
-            h.t = t; h.tri = MCPT_TRI_FIRST + (idx); h.bary = bary; found = true; \
-            if (any_hit) return true; \
-        } \
-    }
     // Counters: no loop iterations, the vertices' fetches (none when compiled in), every triangle.
     BVH_COUNT(0, TRI_VERT_FETCHES);
     BVH_COUNT_TRIS(MCPT_TRI_CONST);
+    // llvmpipe runs every test's code for every ray (issue #14), so what a test computes is what
+    // a ray costs: a shadow ray asks only whether some triangle blocks it (no division, no hit
+    // record: geometry.glsl edges_block), and the closest hit divides once, after the tests
+    // (edges_closer). Issue #23: 1.18x paths per CPU-second on the Cornell box (bench/ab.py
+    // --cpu), the same pixels (cut-outs keep the record: opacity.glsl reads the hit).
+#if !MCPT_OPACITY
+    if (any_hit) {  // a shadow ray (visible()): whether any triangle blocks it
+#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz) if (edges_block(U, V, W, Az, Bz, Cz, h.t)) found = true;
+        TRI_CONST_TESTS
+#undef TRI_CONST_TEST
+        return found;
+    }
+#endif
+    // The closest hit, its division deferred: the best so far kept as (T, det, V, W) with det's
+    // sign folded in (geometry.glsl edges_closer), one division after all the tests.
+    float bT = h.t, bD = 1.0;
+    vec2 bB = vec2(0.0);
+    int bI = -1;
+#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz) edges_closer(U, V, W, Az, Bz, Cz, idx, bT, bD, bB, bI);
     TRI_CONST_TESTS
 #undef TRI_CONST_TEST
+    if (bI < 0) return false;
+    // T s * (1 / (det s)) is T * (1 / det) exactly (sign flips are exact): the bits of
+    // intersect_edges, which the other traversals use.
+    float inv = 1.0 / bD;
+    h.t = bT * inv; h.bary = bB * inv; h.tri = MCPT_TRI_FIRST + bI;
+    return true;
 #else
 #define TRI_CONST_TEST(idx) \
     if ((idx) < MCPT_TRI_CONST) {  /* a constant: folded away past the count */ \

@@ -88,6 +88,33 @@ bool intersect_edges(float U, float V, float W, float Az, float Bz, float Cz, fl
     return true;
 }
 
+// intersect_edges without its division, for the written-out small scenes (glsl/bvh.glsl
+// trace_const; issue #23: llvmpipe runs every test's code, a division included, for every ray).
+// t = T / det lies in (0, tmax) iff, with det's sign s folded into both (exact), 0 < T s and
+// T s < tmax |det|; |det| = 0 fails the second. NaN fails both.
+bool edges_block(float U, float V, float W, float Az, float Bz, float Cz, float tmax) {
+    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) return false;
+    float det = U + V + W;
+    float T = U * Az + V * Bz + W * Cz;
+    float s = det < 0.0 ? -1.0 : 1.0;
+    float Ts = T * s;
+    return Ts > 0.0 && Ts < tmax * (det * s);
+}
+
+// The closest of the tests so far as (bT, bD, bB, bI): t = bT / bD, bary = bB / bD, bD > 0,
+// triangle bI (-1: none; bT = tmax, bD = 1 at the start). t < t_best iff T s bD < bT |det|.
+void edges_closer(float U, float V, float W, float Az, float Bz, float Cz, int idx,
+                  inout float bT, inout float bD, inout vec2 bB, inout int bI) {
+    bool inside = !((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0));
+    float det = U + V + W;
+    float T = U * Az + V * Bz + W * Cz;
+    float s = det < 0.0 ? -1.0 : 1.0;
+    float Ts = T * s, ds = det * s;
+    if (inside && Ts > 0.0 && Ts * bD < bT * ds) {
+        bT = Ts; bD = ds; bB = vec2(V, W) * s; bI = idx;
+    }
+}
+
 bool intersect_sheared(vec3 A, vec3 B, vec3 C, float tmax, out float t, out vec2 bary) {
     return intersect_edges(edge_fn(C, B), edge_fn(A, C), edge_fn(B, A), A.z, B.z, C.z, tmax, t, bary);
 }

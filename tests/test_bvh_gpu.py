@@ -63,9 +63,10 @@ def test_brute_force_shader_path_agrees_with_bvh_path(gl):
 
 
 
-def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False):
+def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False, tmax=None):
     """``shared``: False, True (distinct vertices fetched once, edges shared) or "compiled"
-    (their positions compiled in, issue #23)."""
+    (their positions compiled in, issue #23). ``tmax``: (R,) segment lengths: the shadow-ray
+    query visible() instead (column 0: 1 visible, 0 blocked)."""
     from mcpt.gpu.features import vertex_tables
     from mcpt.shapes.geometry import shared_vertices, vertex_bits
 
@@ -73,6 +74,9 @@ def _gpu_brute(gl, tris32, origins, dirs, tri_const, shared=False):
     probe[0::2, :3] = origins.astype(np.float32).view(np.uint32)
     probe[1::2, :3] = dirs.astype(np.float32).view(np.uint32)
     preamble = f"#define MCPT_BVH 0\n#define MCPT_TRI_CONST {tri_const}"
+    if tmax is not None:
+        probe[0::2, 3] = np.asarray(tmax, np.float32).view(np.uint32)
+        preamble += "\n#define PROBE_VISIBLE 1"
     if shared:
         addr, ids = shared_vertices(tris32)
         pos = vertex_bits(tris32, addr) if shared == "compiled" else ()
@@ -117,6 +121,35 @@ def test_written_out_brute_force_agrees_bitwise(gl):
         assert (loop[:, 1] > 0).mean() > 0.5, n  # the rays really hit something
         for shared in (False, True, "compiled"):
             assert np.array_equal(loop, _gpu_brute(gl, tris32, o, d, n, shared)), (n, shared)
+
+
+def test_written_out_shadow_rays_agree_with_the_loop(gl):
+    """The written-out triangles' shadow-ray test (glsl/geometry.glsl edges_block: t in (0, tmax)
+    decided without the division, no hit record; issue #23) blocks exactly the segments the
+    u_tri_count loop's any-hit test blocks: segments ending well before, just before, just past
+    and well past the closest hit, and rays that hit nothing."""
+    mesh = load_mesh(SUZANNE)
+    all_tris = mesh.vertices[mesh.faces].astype(np.float32)
+    rng = np.random.default_rng(12)
+    for n in (3, 36):
+        start = int(rng.integers(0, len(all_tris) - n))
+        tris32 = all_tris[start:start + n]
+        w = rng.dirichlet((1, 1, 1), 1500)
+        targets = np.einsum("nk,nkj->nj", w, tris32[rng.integers(0, n, 1500)].astype(np.float64))
+        o = rng.normal(size=(1500, 3))
+        o = targets.mean(0) + 3.0 * o / np.linalg.norm(o, axis=1, keepdims=True)
+        d = (targets - o) / np.linalg.norm(targets - o, axis=1, keepdims=True)
+        d[:300] *= -1.0  # away from the triangles: no hit
+        closest = _gpu_brute(gl, tris32, o, d, 0)
+        t_hit = np.where(closest[:, 1] > 0, closest[:, 0].view(np.float32), 5.0)
+        assert 0.5 < (closest[:, 1] > 0).mean() < 0.85, n
+        for scale in (0.5, 0.999, 1.001, 2.0, np.inf):
+            tmax = t_hit * scale
+            loop = _gpu_brute(gl, tris32, o, d, 0, tmax=tmax)[:, 0]
+            written = _gpu_brute(gl, tris32, o, d, n, "compiled", tmax=tmax)[:, 0]
+            # Blocked iff a hit lies before tmax: nothing blocks short segments, a hit blocks long ones.
+            assert loop[closest[:, 1] == 0].all() and (loop[closest[:, 1] > 0] == (scale < 1.0)).all(), scale
+            assert np.array_equal(loop, written), (n, scale)
 
 
 def test_shared_edges_give_each_side_its_edge_function():
