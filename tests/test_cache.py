@@ -410,3 +410,21 @@ def test_the_worst_sah_cost_is_kept_with_the_cached_world(own_cache):
     assert again.stats["cache"] == "hit"
     assert again.bvh.worst_cost is not None
     assert again.bvh.worst_cost == built.bvh.worst_cost == built.bvh._worst_sah_cost()
+
+
+def test_a_cold_key_reads_each_mesh_file_once(own_cache, monkeypatch):
+    """world_key hashes a mesh file and finds the files it names in one read (issue #23: a mesh
+    path is also a file the scene names, and was read and hashed a second time for that)."""
+    from pathlib import Path
+
+    from mcpt.shapes.world_cache import world_key
+
+    reads: list[str] = []
+    real = Path.read_bytes
+    monkeypatch.setattr(Path, "read_bytes", lambda self: reads.append(self.name) or real(self))
+    scene = load_scene(CORNELL)
+    key = world_key(scene)
+    meshes = sorted(Path(m.file).name for m in scene.meshes if m.file)
+    assert meshes and sorted(n for n in reads if n.endswith(".obj")) == meshes
+    reads.clear()
+    assert world_key(scene) == key and reads == []  # remembered: no file read at all

@@ -87,7 +87,10 @@ def world_key(scene: Scene) -> str | None:
     doc.pop("render", None)
     doc.pop("name", None)
     doc["camera"] = {"position": doc["camera"]["position"]}
-    files = {f: cache.file_digest(Path(f)) for f in _named_files(doc)}
+    files = {}
+    # Mesh files first, with what they name: their digest and companions come from one read
+    # (a mesh file is also a named file below; hashed there first, a 40 MB OBJ was read and
+    # hashed twice on a cold key, issue #23).
     for spec in scene.meshes:
         if spec.file is None:
             continue
@@ -98,6 +101,9 @@ def world_key(scene: Scene) -> str | None:
             path, lambda data, p=path: [str(c) for c in _companions(p, data)])
         for companion in companions or ():
             files[companion] = cache.file_digest(Path(companion))
+    for f in _named_files(doc):
+        if f not in files:
+            files[f] = cache.file_digest(Path(f))
     return cache.key_of("world", doc, files, versions())
 
 
