@@ -166,6 +166,43 @@ def test_light_pick_hands_on_its_number_rescaled_within_the_bucket(gl):
         assert p > 1e-3, f"entry {e}: chi2 = {stat:.1f} for {dof} dof"
 
 
+@pytest.mark.parametrize("count", [2, 3, 5, 16])
+def test_the_written_out_light_search_picks_what_the_loop_picks(gl, count):
+    """glsl/lights.glsl light_pick with its binary search written out for a few lights
+    (mcpt/shading/lights.py search_steps, issue #23) returns the entry, pmf and rescaled number of
+    the loop, bit for bit, and the entry whose cdf bucket holds u: at every bucket's edges too."""
+    from mcpt.shading.lights import search_steps
+
+    from .probes import run_test_probe
+    from .test_materials_util import MODE, PROBE_FEATURES
+
+    rng = np.random.default_rng(count)
+    pmf = rng.random(count).astype(np.float32) + 0.05
+    pmf /= pmf.sum()
+    cdf = np.cumsum(pmf, dtype=np.float32)
+    cdf[-1] = np.inf  # as mcpt/shading/lights.py packs the last bound
+    table = np.zeros((count, 4), np.uint32)
+    table[:, 0] = np.arange(count) * 7 + 3  # an entry's reference (a triangle index)
+    table[:, 1] = cdf.view(np.uint32)
+    table[:, 2] = pmf.view(np.uint32)
+    edges = cdf[:-1]
+    u = np.concatenate([rng.random(4000, dtype=np.float32), edges, np.nextafter(edges, np.float32(0)),
+                        np.nextafter(edges, np.float32(1)), np.float32([0.0, 0.99999994])])
+    buf = np.zeros((u.size, 4), np.uint32)
+    buf[:, 0] = u.view(np.uint32)
+    out = {}
+    for steps in (0, search_steps(count)):
+        pre = PROBE_FEATURES.preamble().replace("#define MCPT_LIGHT_STEPS 0", f"#define MCPT_LIGHT_STEPS {steps}")
+        assert f"#define MCPT_LIGHT_STEPS {steps}" in pre
+        out[steps] = run_test_probe(gl, "probe_sample.frag", buf, u.size, preamble=pre,
+                                    key=("probe_sample_steps", steps), tbos={"lights": table},
+                                    uniforms={"u_mode": MODE["light"], "u_light_count": count}, width=1024)
+    assert search_steps(count) == int(np.ceil(np.log2(count)))
+    np.testing.assert_array_equal(out[0], out[search_steps(count)])
+    pick = np.searchsorted(np.r_[cdf[:-1], np.float32(np.inf)], u, side="right")
+    np.testing.assert_array_equal(out[0][:, 0], table[pick, 0])
+
+
 BAD = [
     ("  - {type: point, position: [0, 0, 1], intensity: [0, 0, 0]}", "lights.0.intensity", "zero"),
     ("  - {type: point, position: [0, 0, 1], intensity: [-1, 1, 1]}", "lights.0.intensity", "greater than or equal"),

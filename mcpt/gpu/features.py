@@ -29,7 +29,7 @@ import numpy as np
 from ..scene.animation import camera_moves
 from ..shading import emission_texture, metalrough, microfacet, roughness_texture, specular_weights, thindielectric
 from ..shading.camera import camera_uses
-from ..shading.lights import light_uses
+from ..shading.lights import light_uses, search_steps
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
@@ -180,6 +180,7 @@ class Features:
             "MCPT_MIS": b(self.mis),
             "MCPT_LIGHTS": b(u.lights),
             "MCPT_SINGLE_LIGHT": b(u.single_light),
+            "MCPT_LIGHT_STEPS": u.light_steps,
             "MCPT_LIGHT_AREA": b(u.area_lights),
             "MCPT_LIGHT_POINT": b(u.point_lights),
             "MCPT_LIGHT_SPOT": b(u.spot_lights),
@@ -273,7 +274,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
     has = material_types.__contains__
     return Features.of(
         # what the scene uses
-        **(lights or {"lights": n_emissive > 0, "single_light": n_emissive == 1}), bvh=use_bvh, bvh_dense=bvh_dense,
+        **(lights or {"lights": n_emissive > 0, "single_light": n_emissive == 1,
+                      "light_steps": search_steps(n_emissive)}), bvh=use_bvh, bvh_dense=bvh_dense,
         tri_const=tri_const, diffuse=has("diffuse"), conductor=has("conductor"),
         microfacet=has("conductor") and rough, dielectric=has("dielectric"),
         absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,

@@ -15,6 +15,7 @@ class Uses:
 
     lights: bool = True             # any light (NEE needs one)
     single_light: bool = False      # exactly one light: no light CDF search
+    light_steps: int = 0            # 2..16 lights: the CDF search's steps, written out (0: the loop)
     # issue #20: the light types present (mcpt/shading/lights.py light_uses), each compiled alone
     area_lights: bool = True        # emissive triangles
     point_lights: bool = False
@@ -65,7 +66,7 @@ class Uses:
     def everything(self) -> Uses:
         """Every optional code path (the uber-shader); the geometry's layout stays as it is."""
         return dataclasses.replace(
-            self, lights=True, single_light=False, area_lights=True, point_lights=True, spot_lights=True,
+            self, lights=True, single_light=False, light_steps=0, area_lights=True, point_lights=True, spot_lights=True,
             directional_lights=True, sun_lights=True, environment=True, bvh=True, diffuse=True, conductor=True,
             microfacet=True, dielectric=True, absorption=True, plastic=True, textures=True, smooth_normals=True,
             fresnel_complex=True, one_sided=True, normal_maps=True, opacity=True, beckmann=True,

@@ -98,10 +98,21 @@ def material_light_pdf_area(emission: np.ndarray, total_power: float) -> np.ndar
     return (np.asarray(emission, np.float64) @ LUMINANCE) / total_power
 
 
+#: Up to this many lights the pick's binary search is written out (glsl/lights.glsl light_pick).
+WRITTEN_OUT_SEARCH_MAX = 16
+
+
+def search_steps(entries: int) -> int:
+    """Steps of the light pick's binary search written out in the shader: ceil(log2(entries)) for
+    2..WRITTEN_OUT_SEARCH_MAX lights, else 0 (one light needs none; more keep the loop)."""
+    return (entries - 1).bit_length() if 2 <= entries <= WRITTEN_OUT_SEARCH_MAX else 0
+
+
 def light_uses(lights: Lights) -> dict:
     """The light fields of mcpt.gpu.features.Uses: which light code a scene compiles."""
     k = lights.kinds
-    return {"lights": lights.entries > 0, "single_light": lights.entries == 1, "area_lights": "area" in k,
+    return {"lights": lights.entries > 0, "single_light": lights.entries == 1,
+            "light_steps": search_steps(lights.entries), "area_lights": "area" in k,
             "point_lights": "point" in k, "spot_lights": "spot" in k,
             "directional_lights": "directional" in k, "sun_lights": "sun" in k, "environment": "environment" in k,
             "envmap": lights.envmap is not None}
