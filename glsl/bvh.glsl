@@ -104,6 +104,7 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     // triangles in order. The code is written by the host (mcpt/gpu/limits.py vertex_tables).
     vec3 tv[MCPT_VERT_COUNT];
     float te[TRI_EDGE_COUNT];
+    bool tn[TRI_EDGE_COUNT], tp[TRI_EDGE_COUNT];
     TRI_CONST_VERTS
     TRI_CONST_EDGES
     // Counters: no loop iterations, the vertices' fetches (none when compiled in), every triangle.
@@ -116,7 +117,7 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     // --cpu), the same pixels (cut-outs keep the record: opacity.glsl reads the hit).
 #if !MCPT_OPACITY
     if (any_hit) {  // a shadow ray (visible()): whether any triangle blocks it
-#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz) if (edges_block(U, V, W, Az, Bz, Cz, h.t)) found = true;
+#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz, OUT) if (edges_block(OUT, U, V, W, Az, Bz, Cz, h.t)) found = true;
         TRI_CONST_TESTS
 #undef TRI_CONST_TEST
         return found;
@@ -127,7 +128,7 @@ bool trace_const(Ray r, RayPre p, bool any_hit, inout Hit h) {
     float bT = h.t, bD = 1.0;
     vec2 bB = vec2(0.0);
     int bI = -1;
-#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz) edges_closer(U, V, W, Az, Bz, Cz, idx, bT, bD, bB, bI);
+#define TRI_CONST_TEST(idx, U, V, W, Az, Bz, Cz, OUT) edges_closer(OUT, U, V, W, Az, Bz, Cz, idx, bT, bD, bB, bI);
     TRI_CONST_TESTS
 #undef TRI_CONST_TEST
     if (bI < 0) return false;

@@ -92,8 +92,11 @@ bool intersect_edges(float U, float V, float W, float Az, float Bz, float Cz, fl
 // trace_const; issue #23: llvmpipe runs every test's code, a division included, for every ray).
 // t = T / det lies in (0, tmax) iff, with det's sign s folded into both (exact), 0 < T s and
 // T s < tmax |det|; |det| = 0 fails the second. NaN fails both.
-bool edges_block(float U, float V, float W, float Az, float Bz, float Cz, float tmax) {
-    if ((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0)) return false;
+// ``outside``: intersect_edges' first test, (U < 0 || V < 0 || W < 0) && (U > 0 || V > 0 || W > 0),
+// from sign tests made once per edge (mcpt/gpu/limits.py vertex_tables; an edge serves two
+// triangles: 1.04x paths per CPU-second on the Cornell box).
+bool edges_block(bool outside, float U, float V, float W, float Az, float Bz, float Cz, float tmax) {
+    if (outside) return false;
     float det = U + V + W;
     float T = U * Az + V * Bz + W * Cz;
     float s = det < 0.0 ? -1.0 : 1.0;
@@ -103,9 +106,9 @@ bool edges_block(float U, float V, float W, float Az, float Bz, float Cz, float 
 
 // The closest of the tests so far as (bT, bD, bB, bI): t = bT / bD, bary = bB / bD, bD > 0,
 // triangle bI (-1: none; bT = tmax, bD = 1 at the start). t < t_best iff T s bD < bT |det|.
-void edges_closer(float U, float V, float W, float Az, float Bz, float Cz, int idx,
+void edges_closer(bool outside, float U, float V, float W, float Az, float Bz, float Cz, int idx,
                   inout float bT, inout float bD, inout vec2 bB, inout int bI) {
-    bool inside = !((U < 0.0 || V < 0.0 || W < 0.0) && (U > 0.0 || V > 0.0 || W > 0.0));
+    bool inside = !outside;  // as in edges_block
     float det = U + V + W;
     float T = U * Az + V * Bz + W * Cz;
     float s = det < 0.0 ? -1.0 : 1.0;

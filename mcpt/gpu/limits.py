@@ -80,12 +80,16 @@ def vertex_tables(vert_addr, tri_vert_ids, vert_pos=()) -> str:
     src = [f"uintBitsToFloat(uvec3({x}u, {y}u, {z}u))" for x, y, z in pos] if pos is not None \
         else [f"uintBitsToFloat(texelFetch(u_tris, {int(a)}).xyz)" for a in vert_addr]
     ref = lambda c: f"te[{c}]" if c >= 0 else f"-te[{~c}]"  # noqa: E731 (~c: the edge reversed)
+    neg = lambda c: f"tn[{c}]" if c >= 0 else f"tp[{~c}]"  # noqa: E731 (its sign tests, once per edge)
+    pos = lambda c: f"tp[{c}]" if c >= 0 else f"tn[{~c}]"  # noqa: E731
     return "\n".join((
         f"#define TRI_VERT_FETCHES {0 if pos is not None else len(vert_addr)}",
         f"#define TRI_EDGE_COUNT {max(1, len(edges))}",
         "#define TRI_CONST_VERTS " + " ".join(f"tv[{k}] = tri_shear(r, p, {v});" for k, v in enumerate(src)),
-        "#define TRI_CONST_EDGES " + " ".join(f"te[{k}] = edge_fn(tv[{a}], tv[{b}]);"
-                                              for k, (a, b) in enumerate(edges)),
+        "#define TRI_CONST_EDGES " + " ".join(
+            f"te[{k}] = edge_fn(tv[{a}], tv[{b}]); tn[{k}] = te[{k}] < 0.0; tp[{k}] = te[{k}] > 0.0;"
+            for k, (a, b) in enumerate(edges)),
         "#define TRI_CONST_TESTS " + " ".join(
-            f"TRI_CONST_TEST({i}, {ref(u)}, {ref(v)}, {ref(w)}, tv[{a}].z, tv[{b}].z, tv[{c}].z)"
+            f"TRI_CONST_TEST({i}, {ref(u)}, {ref(v)}, {ref(w)}, tv[{a}].z, tv[{b}].z, tv[{c}].z, "
+            f"({neg(u)} || {neg(v)} || {neg(w)}) && ({pos(u)} || {pos(v)} || {pos(w)}))"
             for i, ((u, v, w), (a, b, c)) in enumerate(zip(signed.tolist(), ids.tolist())))))
