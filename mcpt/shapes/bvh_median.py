@@ -26,22 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bvh_flatten import Level
+
 #: Rows narrower than this take their minima and maxima column by column (one vector operation
 #: per column over all rows): numpy's reduction along a short contiguous row costs a loop set-up
 #: per row, 3-4x slower at width 8 (measured on 2^20 float32 values).
 _COLUMN_REDUCE_WIDTH = 16
-
-
-@dataclass
-class Level:
-    """Nodes of one tree level; node ids are `first_id + arange(len(start))`. The children of the
-    level's i-th splitting node are the next level's nodes 2i (left) and 2i + 1 (right)."""
-
-    first_id: int
-    start: np.ndarray  # first position of the node's triangles in the final order
-    count: np.ndarray  # number of triangles
-    left: np.ndarray  # id of the left child (right = left + 1), -1 for a leaf
-    axis: np.ndarray  # split axis, -1 for a leaf
 
 
 @dataclass
