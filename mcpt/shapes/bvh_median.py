@@ -37,7 +37,7 @@ _COLUMN_REDUCE_WIDTH = 16
 @dataclass
 class _Rows:
     """Nodes of one width: ``node`` (r,) their indices in the level; ``ids`` (r, w) int32 triangle
-    ids; ``cen`` three (r, w) float32 centroid coordinates of those triangles."""
+    ids; ``cen`` three (r, w) float32 centroid coordinates of those triangles (none for leaves)."""
 
     node: np.ndarray
     ids: np.ndarray
@@ -73,7 +73,7 @@ def median_levels(centroids: np.ndarray, max_leaf: int) -> tuple[list[Level], np
                 at = start[block.node][:, None] + np.arange(w)
                 order[at.ravel()] = block.ids.ravel()
                 continue
-            axis[block.node] = _split_rows(block, rank[block.node], halves)
+            axis[block.node] = _split_rows(block, rank[block.node], halves, max_leaf)
         levels.append(Level(first_id, start, count, left, axis))
         if n_split == 0:
             break
@@ -85,7 +85,7 @@ def median_levels(centroids: np.ndarray, max_leaf: int) -> tuple[list[Level], np
     return levels, order.astype(np.int64)
 
 
-def _split_rows(block: _Rows, rank: np.ndarray, halves: dict[int, list[_Rows]]) -> np.ndarray:
+def _split_rows(block: _Rows, rank: np.ndarray, halves: dict[int, list[_Rows]], max_leaf: int) -> np.ndarray:
     """Split every row of ``block`` at the object median of its longest centroid axis; append the
     left (floor(w / 2) wide) and right halves to ``halves`` by width; return the rows' axes."""
     r, w = block.ids.shape
@@ -106,10 +106,13 @@ def _split_rows(block: _Rows, rank: np.ndarray, halves: dict[int, list[_Rows]]) 
     perm += (np.arange(r, dtype=np.int64) * w)[:, None]
     flat = perm.ravel()
     ids = block.ids.ravel().take(flat).reshape(r, w)  # 1-D take: several times faster than
-    cen = [c.ravel().take(flat).reshape(r, w) for c in block.cen]  # take_along_axis
+    # take_along_axis. Leaves need no centroids: none are moved for children that are leaves.
+    cen = [c.ravel().take(flat).reshape(r, w) for c in block.cen] if w - h > max_leaf else []
     kids = 2 * rank
-    halves.setdefault(h, []).append(_Rows(kids, ids[:, :h], [c[:, :h] for c in cen]))
-    halves.setdefault(w - h, []).append(_Rows(kids + 1, ids[:, h:], [c[:, h:] for c in cen]))
+    for node, cols in ((kids, slice(0, h)), (kids + 1, slice(h, w))):
+        width = cols.stop - cols.start
+        halves.setdefault(width, []).append(
+            _Rows(node, ids[:, cols], [c[:, cols] for c in cen] if width > max_leaf else []))
     return row_axis
 
 
@@ -119,7 +122,7 @@ def _join(parts: list[_Rows]) -> _Rows:
         p = parts[0]
         return _Rows(p.node, np.ascontiguousarray(p.ids), [np.ascontiguousarray(c) for c in p.cen])
     return _Rows(np.concatenate([p.node for p in parts]), np.concatenate([p.ids for p in parts]),
-                 [np.concatenate([p.cen[k] for p in parts]) for k in range(3)])
+                 [np.concatenate([p.cen[k] for p in parts]) for k in range(len(parts[0].cen))])
 
 
 def _row_max(a: np.ndarray) -> np.ndarray:
