@@ -69,18 +69,22 @@ def median_levels(centroids: np.ndarray, max_leaf: int) -> tuple[list[Level], np
         next_id = first_id + start.size
         left[split] = next_id + 2 * np.arange(n_split)
         rank = np.cumsum(split) - 1  # i-th splitting node: children 2i, 2i + 1 of the next level
-        halves: dict[int, list[_Rows]] = {}
+        splitting = []
         for block in rows:
             w = block.ids.shape[1]
             if w <= max_leaf:  # a leaf: its triangles are final, at the node's start
                 at = start[block.node][:, None] + np.arange(w)
                 order[at.ravel()] = block.ids.ravel()
-                continue
-            axis[block.node] = _split_rows(block, rank[block.node], halves, max_leaf)
+            else:
+                splitting.append(block)
+        dest = _next_rows(splitting, max_leaf)
+        filled = dict.fromkeys(dest, 0)
+        for block in splitting:
+            axis[block.node] = _split_rows(block, rank[block.node], dest, filled)
         levels.append(Level(first_id, start, count, left, axis))
         if n_split == 0:
             break
-        rows = [_join(parts) for parts in halves.values()]
+        rows = list(dest.values())
         s, c = start[split], count[split]
         count = np.stack([c // 2, c - c // 2], axis=1).ravel()
         start = np.stack([s, s + c // 2], axis=1).ravel()
@@ -88,9 +92,22 @@ def median_levels(centroids: np.ndarray, max_leaf: int) -> tuple[list[Level], np
     return levels, order.astype(np.int64)
 
 
-def _split_rows(block: _Rows, rank: np.ndarray, halves: dict[int, list[_Rows]], max_leaf: int) -> np.ndarray:
-    """Split every row of ``block`` at the object median of its longest centroid axis; append the
-    left (floor(w / 2) wide) and right halves to ``halves`` by width; return the rows' axes."""
+def _next_rows(splitting: list[_Rows], max_leaf: int) -> dict[int, _Rows]:
+    """Empty blocks for the children of ``splitting``'s rows, by width (two widths: see the
+    module docstring); leaves get no centroid arrays."""
+    total: dict[int, int] = {}
+    for block in splitting:
+        r, w = block.ids.shape
+        for width in (w // 2, w - w // 2):
+            total[width] = total.get(width, 0) + r
+    return {w: _Rows(np.empty(n, np.int64), np.empty((n, w), np.int32),
+                     [np.empty((n, w), np.float32) for _ in range(3)] if w > max_leaf else [])
+            for w, n in total.items()}
+
+
+def _split_rows(block: _Rows, rank: np.ndarray, dest: dict[int, _Rows], filled: dict[int, int]) -> np.ndarray:
+    """Split every row of ``block`` at the object median of its longest centroid axis, the halves
+    taken straight into their rows of ``dest``; return the rows' axes."""
     r, w = block.ids.shape
     extent = np.stack([_row_max(c) - _row_min(c) for c in block.cen], axis=1)
     row_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
@@ -107,25 +124,33 @@ def _split_rows(block: _Rows, rank: np.ndarray, halves: dict[int, list[_Rows]], 
     # The h smallest keys of each row before position h, the others from h on: an object median.
     perm = np.argpartition(key, h, axis=1)
     perm += (np.arange(r, dtype=np.int64) * w)[:, None]
-    flat = perm.ravel()
-    ids = block.ids.ravel().take(flat).reshape(r, w)  # 1-D take: several times faster than
-    # take_along_axis. Leaves need no centroids: none are moved for children that are leaves.
-    cen = [c.ravel().take(flat).reshape(r, w) for c in block.cen] if w - h > max_leaf else []
     kids = 2 * rank
-    for node, cols in ((kids, slice(0, h)), (kids + 1, slice(h, w))):
-        width = cols.stop - cols.start
-        halves.setdefault(width, []).append(
-            _Rows(node, ids[:, cols], [c[:, cols] for c in cen] if width > max_leaf else []))
+    if 2 * h == w:
+        # Both halves h wide: row i of the permuted block is rows 2i, 2i + 1 of the children's.
+        d, o = dest[h], filled[h]
+        filled[h] += 2 * r
+        d.node[o:o + 2 * r] = (kids[:, None] + np.arange(2)).ravel()
+        _take_rows(block, perm, d, o, 2 * r, (r, w))
+    else:
+        for node, cols in ((kids, slice(0, h)), (kids + 1, slice(h, w))):
+            width = cols.stop - cols.start
+            d, o = dest[width], filled[width]
+            filled[width] += r
+            d.node[o:o + r] = node
+            _take_rows(block, np.ascontiguousarray(perm[:, cols]), d, o, r, (r, width))
     return row_axis
 
 
-def _join(parts: list[_Rows]) -> _Rows:
-    """One contiguous block from the halves of one width (at most three: see the docstring)."""
-    if len(parts) == 1:
-        p = parts[0]
-        return _Rows(p.node, np.ascontiguousarray(p.ids), [np.ascontiguousarray(c) for c in p.cen])
-    return _Rows(np.concatenate([p.node for p in parts]), np.concatenate([p.ids for p in parts]),
-                 [np.concatenate([p.cen[k] for p in parts]) for k in range(len(parts[0].cen))])
+def _take_rows(block: _Rows, index: np.ndarray, d: _Rows, o: int, n: int, shape: tuple[int, int]) -> None:
+    """Rows ``o .. o + n`` of ``d`` (viewed as ``shape``) from ``block`` at the flat ``index``.
+
+    A 1-D take, several times faster than take_along_axis, written straight into the next level's
+    block (no halves joined afterwards: ~10% of these levels). mode="clip" because numpy buffers
+    ``out`` under the default mode="raise"; the indices are valid. Leaves (``d.cen`` empty) get no
+    centroids."""
+    np.take(block.ids.ravel(), index, out=d.ids[o:o + n].reshape(shape), mode="clip")
+    for c, dc in zip(block.cen, d.cen):
+        np.take(c.ravel(), index, out=dc[o:o + n].reshape(shape), mode="clip")
 
 
 def _row_max(a: np.ndarray) -> np.ndarray:
