@@ -11,7 +11,7 @@ holds floor(F / 2^L) or ceil(F / 2^L) triangles (children of sizes {q, q + 1} ha
 of the same shape; a level takes every row's centroid bounds with row minima and maxima and
 splits every row at once with ``np.argpartition(key, width // 2, axis=1)`` (introselect: O(width)
 a row, in C) on the centroid of the row's longest axis. That replaces three centroid-sorted id
-lists stable-partitioned every level (issue #23, 10^6 triangles: these levels ~0.55 CPU-s against
+lists stable-partitioned every level (issue #23, 10^6 triangles: these levels ~0.45-0.6 CPU-s against
 ~0.9-1.0 for the lists, whose three initial argsorts alone took 0.2 s).
 
 The centroids are rounded to float32 for the splits (half the memory traffic of float64, measured
