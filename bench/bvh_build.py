@@ -1,11 +1,13 @@
 """BVH build time and tree quality: this tree's builder (mcpt/shapes/bvh_build.py) against the
-one at a git revision from before the package layout of issue #9 (a single mcpt/bvh.py).
+one at a git revision: its mcpt/shapes/bvh_build.py (run with this tree's other modules), or, at a
+revision from before the package layout of issue #9, its single mcpt/bvh.py.
 
 Both builders run in this process, alternating (A, B, A, B, ...), on the same triangles: wall
 and CPU seconds (CPU time is less disturbed by other processes on a shared machine), and each
 tree's SAH cost (mcpt/bvh.py BVH.sah_cost, loop iterations per ray entering the root box).
 
     .venv/bin/python -m mcpt.bench.bvh_build --base f2c0b3b --triangles 1000000 --rounds 3
+    .venv/bin/python -m mcpt.bench.bvh_build --base main --npy tris.npy --rounds 5   # saved (F, 3, 3)
 """
 
 from __future__ import annotations
@@ -23,13 +25,19 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def load_base(rev: str):
-    """mcpt/bvh.py at ``rev`` as a stand-alone module (it imports only numpy)."""
-    src = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:mcpt/bvh.py"], check=True,
-                         capture_output=True, text=True).stdout
-    spec = importlib.util.spec_from_loader("bvh_base", loader=None)
+    """The builder at ``rev``: mcpt/shapes/bvh_build.py as a module of this tree's mcpt.shapes
+    (its relative imports resolve to this tree), else mcpt/bvh.py stand-alone (numpy only)."""
+    path, name, package = "mcpt/shapes/bvh_build.py", "mcpt.shapes.bvh_build_base", "mcpt.shapes"
+    shown = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:{path}"], capture_output=True, text=True)
+    if shown.returncode != 0:
+        path, name, package = "mcpt/bvh.py", "bvh_base", None
+        shown = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:{path}"], check=True,
+                               capture_output=True, text=True)
+    spec = importlib.util.spec_from_loader(name, loader=None)
     mod = importlib.util.module_from_spec(spec)
-    sys.modules["bvh_base"] = mod  # dataclasses look the module up by name
-    exec(compile(src, f"{rev}:mcpt/bvh.py", "exec"), mod.__dict__)
+    mod.__package__ = package
+    sys.modules[name] = mod  # dataclasses look the module up by name
+    exec(compile(shown.stdout, f"{rev}:{path}", "exec"), mod.__dict__)
     return mod
 
 
@@ -50,13 +58,14 @@ def main(argv=None) -> int:
     ap.add_argument("--triangles", type=int, default=1_000_000)
     ap.add_argument("--mesh", choices=("random", "bunny"), default="random",
                     help="random triangles, or the bunny subdivided twice (1.1M) cut to --triangles")
+    ap.add_argument("--npy", help="triangles saved with np.save, (F, 3, 3); overrides --mesh/--triangles")
     ap.add_argument("--rounds", type=int, default=3)
     args = ap.parse_args(argv)
 
     from mcpt.shapes import bvh_build as new
     from mcpt.shapes.bvh import BVH
     old = load_base(args.base)
-    tris = triangles(args.mesh, args.triangles)
+    tris = np.load(args.npy) if args.npy else triangles(args.mesh, args.triangles)
     sides = {"A": old.build_bvh, "B": new.build_bvh}
     wall = {"A": [], "B": []}
     cpu = {"A": [], "B": []}

@@ -1,7 +1,8 @@
 """The bounding volume hierarchy: the tree record, its SAH cost and its GPU layout (glsl/bvh.glsl).
 
 The tree is built by mcpt/shapes/bvh_build.py (object-median splits, the axis and the leaves
-chosen by SAH, large triangles in a subtree of their own).
+chosen by SAH, large triangles in a subtree of their own; above SAH_MAX_TRIANGLES the longest
+axis's median, mcpt/shapes/bvh_median.py) and packed by mcpt/shapes/bvh_flatten.py.
 
 The tree record (`BVH.nodes`, (M, 8) uint32, row i = node i; the shader reads the GPU layouts
 below, built from it)::

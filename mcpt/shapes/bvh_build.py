@@ -5,10 +5,11 @@ chosen among the three by the surface area heuristic (SAH: MacDonald & Booth 199
 of at most ``max_leaf`` triangles stays a leaf where SAH prices the leaf no dearer than its best
 split; SAH prices are loop iterations of glsl/bvh.glsl, where a node step and a triangle test
 cost the same (SAH_STEP_COST, SAH_TRI_COST). Above SAH_MAX_TRIANGLES, or with ``sah=False``,
-the longest axis of the centroid bounds is split down to ``max_leaf`` (the build's cost). The tree is
-built level by level with every node of a level handled by the same numpy operations, so the
-Python work is O(depth), not O(triangles) or O(nodes): three index lists, each sorted by one
-centroid axis, are kept grouped by node and sorted inside every node; splitting a node at its
+the longest axis of the centroid bounds is split down to ``max_leaf`` (the build's cost), by
+mcpt/shapes/bvh_median.py (rows of ids split by argpartition). The tree is built level by level
+with every node of a level handled by the same numpy operations, so the Python work is O(depth),
+not O(triangles) or O(nodes). The SAH path keeps three index lists, each sorted by one
+centroid axis, grouped by node and sorted inside every node; splitting a node at its
 median on axis k is then "the first half of list k goes left", and all three lists are
 stable-partitioned once per level (the classic presorted kd-tree build). A node that becomes a
 leaf leaves the lists, so each level costs O(triangles still being split).
@@ -28,12 +29,13 @@ by one at most.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..parallel import ordered
 from .bvh import BVH, DEFAULT_MAX_LEAF, LEAF_FLAG, MAX_STACK, SAH_MAX_TRIANGLES, SAH_STEP_COST, SAH_TRI_COST
+from .bvh_flatten import Level, flatten
+from .bvh_median import median_levels
 
 #: A triangle whose box diagonal exceeds this multiple of the median goes to the large subtree.
 LARGE_TRIANGLE_FACTOR = 8.0
@@ -45,20 +47,25 @@ def build_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF, sah: b
     Same arguments, result and errors as :func:`build_median_bvh`.
     """
     t_start = time.perf_counter()
-    tris = np.asarray(tri_vertices)
-    if tris.ndim == 3 and tris.shape[1:] == (3, 3) and len(tris) > 2 * max_leaf and np.isfinite(tris).all():
-        # Corner-wise minimum/maximum: the same values as min/max(axis=1), 10x faster on (F, 3, 3).
-        hi = np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2])
-        lo = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2])
-        diag = np.linalg.norm(hi.astype(np.float64) - lo, axis=1)
+    tris, max_leaf = _checked(tri_vertices, max_leaf)
+    lo, hi = _corner_bounds(tris)
+    centroids = _centroids(tris)
+    if len(tris) > 2 * max_leaf:
+        # |hi - lo| summed by hand: the same values as np.linalg.norm(axis=1) (x0^2 + x1^2 + x2^2
+        # in that order), ~3x faster than its reduction over rows of 3.
+        d = hi.astype(np.float64) - lo
+        d *= d
+        diag = np.sqrt(d[:, 0] + d[:, 1] + d[:, 2])
         large = diag > LARGE_TRIANGLE_FACTOR * np.median(diag)
         if large.any() and not large.all():
+            # The subtrees need only the triangles' centroids and boxes: no (F, 3, 3) copy.
             small_ids, large_ids = np.flatnonzero(~large), np.flatnonzero(large)
-            joined = _join(build_median_bvh(tris[small_ids], max_leaf, sah), small_ids,
-                           build_median_bvh(tris[large_ids], max_leaf, sah), large_ids)
+            joined = _join(_median_tree(centroids[small_ids], lo[small_ids], hi[small_ids], max_leaf, sah), small_ids,
+                           _median_tree(centroids[large_ids], lo[large_ids], hi[large_ids], max_leaf, sah), large_ids)
             return BVH(joined.nodes, joined.order, joined.depth, max_leaf,
                        time.perf_counter() - t_start)
-    return build_median_bvh(tri_vertices, max_leaf, sah)
+    bvh = _median_tree(centroids, lo, hi, max_leaf, sah)
+    return BVH(bvh.nodes, bvh.order, bvh.depth, max_leaf, time.perf_counter() - t_start)
 
 
 def _join(a: BVH, a_ids: np.ndarray, b: BVH, b_ids: np.ndarray) -> BVH:
@@ -103,15 +110,21 @@ def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF,
         RuntimeError: the tree would be deeper than the GPU stack allows (`MAX_STACK`).
     """
     t_start = time.perf_counter()
+    tris, max_leaf = _checked(tri_vertices, max_leaf)
+    bvh = _median_tree(_centroids(tris), *_corner_bounds(tris), max_leaf, sah)
+    return BVH(bvh.nodes, bvh.order, bvh.depth, max_leaf, time.perf_counter() - t_start)
+
+
+def _checked(tri_vertices: np.ndarray, max_leaf: int) -> tuple[np.ndarray, int]:
+    """The triangles as a float32 or float64 (F, 3, 3) array and ``max_leaf`` as an int, or the
+    ValueError of :func:`build_median_bvh`."""
     tris = np.asarray(tri_vertices)
     if tris.ndim != 3 or tris.shape[1:] != (3, 3):
         raise ValueError(f"tri_vertices must have shape (F, 3, 3), got {tris.shape}")
     if not 1 <= int(max_leaf) < LEAF_FLAG:
         raise ValueError(f"max_leaf must be in [1, 2^31), got {max_leaf}")
-    max_leaf = int(max_leaf)
-    n_tris = tris.shape[0]
-    if n_tris >= LEAF_FLAG:
-        raise ValueError(f"{n_tris} triangles do not fit the 31-bit leaf fields")
+    if tris.shape[0] >= LEAF_FLAG:
+        raise ValueError(f"{tris.shape[0]} triangles do not fit the 31-bit leaf fields")
     if tris.dtype != np.float32:
         # float32 input stays float32: every box is a min/max of its values (exact in either
         # type) and the centroids are summed in float64 below, so the tree is the same, and no
@@ -120,43 +133,51 @@ def build_median_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF,
     if not np.isfinite(tris).all():
         bad = int((~np.isfinite(tris).all(axis=(1, 2))).sum())
         raise ValueError(f"{bad} triangles have non-finite coordinates")
+    return tris, int(max_leaf)
 
+
+def _corner_bounds(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(F, 3) per-triangle box corners, in the input's type. Corner-wise minimum/maximum: the
+    same values as min/max(axis=1), 10x faster on (F, 3, 3)."""
+    lo = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2])
+    hi = np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2])
+    return lo, hi
+
+
+def _centroids(tris: np.ndarray) -> np.ndarray:
+    """(F, 3) triangle centroids, summed in float64 whatever the input type; 4x faster than
+    mean(axis=1)."""
+    return (tris[:, 0].astype(np.float64) + tris[:, 1] + tris[:, 2]) / 3.0
+
+
+def _median_tree(centroids: np.ndarray, lo: np.ndarray, hi: np.ndarray, max_leaf: int, sah: bool) -> BVH:
+    """:func:`build_median_bvh` on checked input, given its triangles' centroids (`_centroids`)
+    and boxes (`_corner_bounds`)."""
+    n_tris = centroids.shape[0]
     if n_tris == 0:
         # Inverted box (+inf, -inf): every slab test misses, so an empty scene renders black.
         nodes = np.zeros((1, 8), np.uint32)
         nodes[0, 0:3] = np.full(3, np.inf, np.float32).view(np.uint32)
         nodes[0, 4:7] = np.full(3, -np.inf, np.float32).view(np.uint32)
         nodes[0, 7] = LEAF_FLAG
-        return BVH(nodes, np.zeros(0, np.int64), 1, max_leaf, time.perf_counter() - t_start)
+        return BVH(nodes, np.zeros(0, np.int64), 1, max_leaf, 0.0)
 
-    # (F, 3), summed in float64 whatever the input type; 4x faster than mean(axis=1).
-    centroids = (tris[:, 0].astype(np.float64) + tris[:, 1] + tris[:, 2]) / 3.0
-    boxes = None
     if sah and n_tris <= SAH_MAX_TRIANGLES:
         boxes = np.empty((6, n_tris), np.float32)   # (lo, -hi) per column: mins only
-        boxes[:3] = np.minimum(np.minimum(tris[:, 0], tris[:, 1]), tris[:, 2]).T
-        boxes[3:] = -np.maximum(np.maximum(tris[:, 0], tris[:, 1]), tris[:, 2]).T
-    levels, order = _split_levels(centroids, boxes, max_leaf)
-    nodes = _flatten(levels, order, tris, n_tris)
+        boxes[:3] = lo.T
+        boxes[3:] = -hi.T
+        levels, order = _split_levels(centroids, boxes, max_leaf)
+    else:
+        levels, order = median_levels(centroids, max_leaf)
+    nodes = flatten(levels, order, lo, hi)
     depth = len(levels)
     if depth + 2 > MAX_STACK:
         raise RuntimeError(f"BVH depth {depth} needs a traversal stack larger than MAX_STACK={MAX_STACK}")
-    return BVH(nodes, order.astype(np.int64), depth, max_leaf, time.perf_counter() - t_start)
+    return BVH(nodes, order, depth, max_leaf, 0.0)
 
 
 # --------------------------------------------------------------------------------------------
 # build internals
-
-
-@dataclass
-class _Level:
-    """Nodes of one tree level; node ids are `first_id + arange(len(start))`."""
-
-    first_id: int
-    start: np.ndarray  # first position of the node's triangles in the sorted lists
-    count: np.ndarray  # number of triangles
-    left: np.ndarray  # id of the left child (right = left + 1), -1 for a leaf
-    axis: np.ndarray  # split axis, -1 for a leaf
 
 
 class _Lists:
@@ -169,15 +190,14 @@ class _Lists:
     to ``order`` and leaves the lists, so every per-level operation runs over the triangles still
     being split, contiguously."""
 
-    def __init__(self, centroids: np.ndarray, boxes: np.ndarray | None):
+    def __init__(self, centroids: np.ndarray, boxes: np.ndarray):
         n_tris = len(centroids)
         self.ids = np.stack(ordered(lambda k: np.argsort(centroids[:, k]).astype(np.int32), range(3)))
         self.order = np.empty(n_tris, np.int32)
         self.goes_right = np.zeros(n_tris, dtype=bool)  # scratch, only read where just written
-        self.cent = [np.ascontiguousarray(centroids[:, k]) for k in range(3)]
-        # With SAH: the boxes in each list's order, (3, 6, F), moved along with the lists, so a
-        # node's boxes are a contiguous slice instead of a random gather by triangle id.
-        self.boxes = None if boxes is None else np.stack([boxes[:, self.ids[k]] for k in range(3)])
+        # The boxes in each list's order, (3, 6, F), moved along with the lists, so a node's
+        # boxes are a contiguous slice instead of a random gather by triangle id.
+        self.boxes = np.stack([boxes[:, self.ids[k]] for k in range(3)])
 
     def drop(self, keep_nodes, s, c, off) -> None:
         """Write the triangles of nodes not in ``keep_nodes`` to `order`; keep the others."""
@@ -187,16 +207,7 @@ class _Lists:
         gpos += np.flatnonzero(gone).astype(np.int32)
         self.order[gpos] = self.ids[0][gone]
         self.ids = self.ids[:, keep]
-        if self.boxes is not None:
-            self.boxes = self.boxes[:, :, keep]
-
-    def median_axes(self, seg_offset, c) -> np.ndarray:
-        """The longest centroid axis of every splitting node (the plain median tree)."""
-        # Each list is sorted inside the node, so centroid bounds are its first/last entries.
-        lists, cent = self.ids, self.cent
-        first, last = seg_offset, seg_offset + c - 1
-        extent = np.stack([cent[k][lists[k, last]] - cent[k][lists[k, first]] for k in range(3)], axis=1)
-        return np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
+        self.boxes = self.boxes[:, :, keep]
 
     def partition(self, node_axis, c, n_split) -> np.ndarray:
         """Split every node at its object median on ``node_axis``; returns the child sizes, left
@@ -228,8 +239,6 @@ class _Lists:
             new = np.empty_like(ids)
             new[left_half] = ids[to_left]
             new[right_half] = ids[to_right]
-            if self.boxes is None:
-                return new, None
             b = self.boxes[k]
             nb = np.empty_like(b)
             nb[:, left_half] = np.take(b, to_left, axis=1)
@@ -239,57 +248,51 @@ class _Lists:
         moving = [k for k in range(3) if not (node_axis == k).all()]
         for k, (new, nb) in zip(moving, ordered(move, moving)):
             lists[k] = new
-            if nb is not None:
-                self.boxes[k] = nb
+            self.boxes[k] = nb
         return child_count
 
 
-def _split_levels(centroids: np.ndarray, boxes: np.ndarray | None,
-                  max_leaf: int) -> tuple[list[_Level], np.ndarray]:
-    """Split nodes level by level; returns the levels and the final triangle order.
+def _split_levels(centroids: np.ndarray, boxes: np.ndarray, max_leaf: int) -> tuple[list[Level], np.ndarray]:
+    """Split nodes level by level, SAH choosing; returns the levels and the final triangle order.
 
-    ``boxes`` (6, F) float32 triangle boxes as (lo, -hi), or None: split every node at the object
-    median of its longest centroid axis (the plain median tree). With boxes, the three axes'
-    object medians are scored by SAH and the cheapest taken; a node of at most ``max_leaf``
-    triangles stays a leaf when SAH prices the leaf at most at its best split. Larger nodes
-    always split, so leaves respect the cap either way.
+    ``boxes`` (6, F) float32 triangle boxes as (lo, -hi). The three axes' object medians are
+    scored by SAH and the cheapest taken; a node of at most ``max_leaf`` triangles stays a leaf
+    when SAH prices the leaf at most at its best split. Larger nodes always split, so leaves
+    respect the cap. (The plain median tree: mcpt/shapes/bvh_median.py.)
     """
     lists = _Lists(centroids, boxes)
-    levels: list[_Level] = []
+    levels: list[Level] = []
     start = np.zeros(1, np.int64)
     count = np.array([len(centroids)], np.int64)
     first_id = 0
     while start.size:
         off = np.cumsum(count) - count  # where each node starts inside the lists
-        split = count > (1 if boxes is not None else max_leaf)
+        split = count > 1
         if not split.all():
             lists.drop(split, start, count, off)
         s, c = start[split], count[split]
         n_split = s.size
         if n_split == 0:
-            levels.append(_Level(first_id, start, count, np.full(start.size, -1, np.int64),
+            levels.append(Level(first_id, start, count, np.full(start.size, -1, np.int64),
                                  np.full(start.size, -1, np.int64)))
             break
         seg_offset = np.cumsum(c) - c  # where each splitting node starts inside the lists
-        if boxes is None:
-            node_axis = lists.median_axes(seg_offset, c)
-        else:
-            node_axis, keep_leaf = _sah_choice(lists.boxes, seg_offset, c, max_leaf)
-            if keep_leaf.any():
-                # Nodes SAH keeps as leaves drop out of this level's split.
-                idx = np.flatnonzero(split)
-                split[idx[keep_leaf]] = False
-                go = ~keep_leaf
-                lists.drop(go, s, c, seg_offset)
-                s, c, node_axis = s[go], c[go], node_axis[go]
-                n_split = s.size
+        node_axis, keep_leaf = _sah_choice(lists.boxes, seg_offset, c, max_leaf)
+        if keep_leaf.any():
+            # Nodes SAH keeps as leaves drop out of this level's split.
+            idx = np.flatnonzero(split)
+            split[idx[keep_leaf]] = False
+            go = ~keep_leaf
+            lists.drop(go, s, c, seg_offset)
+            s, c, node_axis = s[go], c[go], node_axis[go]
+            n_split = s.size
         mid = s + c // 2  # object median: the left child gets floor(c / 2) triangles
         next_id = first_id + start.size
         left = np.full(start.size, -1, np.int64)
         left[split] = next_id + 2 * np.arange(n_split)
         axis = np.full(start.size, -1, np.int64)
         axis[split] = node_axis
-        levels.append(_Level(first_id, start, count, left, axis))
+        levels.append(Level(first_id, start, count, left, axis))
         if n_split == 0:
             break
         count = lists.partition(node_axis, c, n_split)
@@ -328,72 +331,3 @@ def _sah_choice(node_boxes, seg_offset, c, max_leaf):
     split_cost = SAH_STEP_COST + best / np.where(flat, 1.0, parent) * SAH_TRI_COST
     keep_leaf = (c <= max_leaf) & (c * SAH_TRI_COST <= split_cost) & ~flat
     return node_axis, keep_leaf
-
-
-def _round_out(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Round float64 box corners outward to float32 values (returned as float64)."""
-    lo32 = lo.astype(np.float32)
-    hi32 = hi.astype(np.float32)
-    lo32 = np.where(lo32.astype(np.float64) > lo, np.nextafter(lo32, np.float32(-np.inf)), lo32)
-    hi32 = np.where(hi32.astype(np.float64) < hi, np.nextafter(hi32, np.float32(np.inf)), hi32)
-    return lo32.astype(np.float64), hi32.astype(np.float64)
-
-
-def _flatten(levels: list[_Level], order: np.ndarray, tris: np.ndarray, n_tris: int) -> np.ndarray:
-    """Compute boxes bottom-up, renumber depth-first pre-order, pack (M, 8) uint32."""
-    start = np.concatenate([lv.start for lv in levels])
-    count = np.concatenate([lv.count for lv in levels])
-    left = np.concatenate([lv.left for lv in levels])
-    axis = np.concatenate([lv.axis for lv in levels])
-    n_nodes = start.size
-    leaf = left < 0
-
-    # Leaf boxes: leaves partition [0, F) of the final order, so one reduceat does them all.
-    leaf_ids = np.flatnonzero(leaf)
-    leaf_ids = leaf_ids[np.argsort(start[leaf_ids])]
-    # One axis at a time: gathering and reducing 1-D columns is several times faster than rows
-    # of an (F, 3) array, with the same values.
-    leaf_start = start[leaf_ids]
-    leaf_lo = np.empty((leaf_ids.size, 3))
-    leaf_hi = np.empty((leaf_ids.size, 3))
-
-    def axis_bounds(k):  # the axes on every core
-        corner = [tris[:, j, k] for j in range(3)]
-        return (np.minimum.reduceat(np.minimum(np.minimum(*corner[:2]), corner[2])[order], leaf_start),
-                np.maximum.reduceat(np.maximum(np.maximum(*corner[:2]), corner[2])[order], leaf_start))
-
-    for k, (lo_k, hi_k) in enumerate(ordered(axis_bounds, range(3))):
-        leaf_lo[:, k], leaf_hi[:, k] = lo_k, hi_k
-    lo = np.empty((n_nodes, 3))
-    hi = np.empty((n_nodes, 3))
-    lo[leaf_ids], hi[leaf_ids] = _round_out(leaf_lo, leaf_hi)
-
-    # Interior boxes and subtree sizes bottom-up; children always live on the next level.
-    subtree = np.ones(n_nodes, np.int64)
-    for lv in reversed(levels):
-        ids = lv.first_id + np.flatnonzero(lv.left >= 0)
-        if ids.size == 0:
-            continue
-        lc = left[ids]
-        lo[ids] = np.minimum(lo[lc], lo[lc + 1])  # exact: children are already float32 values
-        hi[ids] = np.maximum(hi[lc], hi[lc + 1])
-        subtree[ids] = 1 + subtree[lc] + subtree[lc + 1]
-
-    # Depth-first pre-order: left child right after its parent, right child after the whole
-    # left subtree. Lets the shader skip storing the left index.
-    pre = np.zeros(n_nodes, np.int64)
-    for lv in levels:
-        ids = lv.first_id + np.flatnonzero(lv.left >= 0)
-        lc = left[ids]
-        pre[lc] = pre[ids] + 1
-        pre[lc + 1] = pre[ids] + 1 + subtree[lc]
-
-    right = np.where(leaf, 0, left + 1)  # 0: placeholder index for leaves, masked below
-    a = np.where(leaf, start, pre[right])
-    b = np.where(leaf, count | LEAF_FLAG, axis)
-    nodes = np.empty((n_nodes, 8), np.uint32)
-    nodes[pre, 0:3] = lo.astype(np.float32).view(np.uint32)
-    nodes[pre, 3] = a
-    nodes[pre, 4:7] = hi.astype(np.float32).view(np.uint32)
-    nodes[pre, 7] = b
-    return nodes
