@@ -154,18 +154,18 @@ def _take_rows(block: _Rows, index: np.ndarray, d: _Rows, o: int, n: int, shape:
 
 
 def _row_max(a: np.ndarray) -> np.ndarray:
-    if a.shape[1] >= _COLUMN_REDUCE_WIDTH:
-        return a.max(axis=1)
-    out = a[:, 0].copy()
-    for j in range(1, a.shape[1]):
-        np.maximum(out, a[:, j], out=out)
-    return out
+    return _row_reduce(a, np.maximum)
 
 
 def _row_min(a: np.ndarray) -> np.ndarray:
+    return _row_reduce(a, np.minimum)
+
+
+def _row_reduce(a: np.ndarray, op: np.ufunc) -> np.ndarray:
+    """``op`` (np.minimum or np.maximum) over every row of ``a``: column by column for narrow rows."""
     if a.shape[1] >= _COLUMN_REDUCE_WIDTH:
-        return a.min(axis=1)
+        return op.reduce(a, axis=1)
     out = a[:, 0].copy()
     for j in range(1, a.shape[1]):
-        np.minimum(out, a[:, j], out=out)
+        op(out, a[:, j], out=out)
     return out
