@@ -20,6 +20,7 @@ import logging
 import os
 import signal
 import threading
+from collections import deque
 
 import numpy as np
 
@@ -234,18 +235,19 @@ def _run(client, p, acc, control, save_checkpoint):
     tiles = r.tiles
     start = acc.spp
     todo = ranges(start, spp, acc.chunk)
-    queue = iter([(first, stop, ti) for first, stop in todo for ti in range(len(tiles))])
+    queue = deque((first, stop, ti) for first, stop in todo for ti in range(len(tiles)))
     pending: dict = {}
     submitted = 0
 
     def submit_more():
         nonlocal submitted
+        if not queue:  # all submitted: no need to ask the scheduler anything
+            return
         # Counted again each time: workers may join a --scheduler cluster while it runs.
         workers = max(1, len(client.scheduler_info()["workers"]))
         window = max(len(tiles), IN_FLIGHT_PER_WORKER * workers)
-        if len(pending) >= window:
-            return
-        for first, stop, ti in queue:
+        while queue and len(pending) < window:
+            first, stop, ti = queue.popleft()
             carry = None
             if first == start and acc.partial is not None:  # only the first range carries one
                 _x0, y0, _w, h = tiles[ti]
@@ -255,8 +257,6 @@ def _run(client, p, acc, control, save_checkpoint):
                                 pure=False, retries=3)
             pending[fut] = (first, stop, ti)
             submitted += 1
-            if len(pending) >= window:
-                return
 
     arrived: dict[int, dict[int, list]] = {}
     submit_more()
