@@ -88,6 +88,15 @@ bool intersect_edges(float U, float V, float W, float Az, float Bz, float Cz, fl
     return true;
 }
 
+// T s of the edge functions and sheared depths (T = U Az + V Bz + W Cz, as intersect_edges), with
+// s the sign of det = U + V + W and ds = det s = |det| (sign flips: exact).
+float signed_depth(float U, float V, float W, float Az, float Bz, float Cz, out float s, out float ds) {
+    float det = U + V + W;
+    s = det < 0.0 ? -1.0 : 1.0;
+    ds = det * s;
+    return (U * Az + V * Bz + W * Cz) * s;
+}
+
 // intersect_edges without its division, for the written-out small scenes (glsl/bvh.glsl
 // trace_const; issue #23: llvmpipe runs every test's code, a division included, for every ray).
 // t = T / det lies in (0, tmax) iff, with det's sign s folded into both (exact), 0 < T s and
@@ -96,24 +105,18 @@ bool intersect_edges(float U, float V, float W, float Az, float Bz, float Cz, fl
 // from sign tests made once per edge (mcpt/gpu/limits.py vertex_tables; an edge serves two
 // triangles: 1.04x paths per CPU-second on the Cornell box).
 bool edges_block(bool outside, float U, float V, float W, float Az, float Bz, float Cz, float tmax) {
-    if (outside) return false;
-    float det = U + V + W;
-    float T = U * Az + V * Bz + W * Cz;
-    float s = det < 0.0 ? -1.0 : 1.0;
-    float Ts = T * s;
-    return Ts > 0.0 && Ts < tmax * (det * s);
+    float s, ds;
+    float Ts = signed_depth(U, V, W, Az, Bz, Cz, s, ds);
+    return !outside && Ts > 0.0 && Ts < tmax * ds;
 }
 
 // The closest of the tests so far as (bT, bD, bB, bI): t = bT / bD, bary = bB / bD, bD > 0,
 // triangle bI (-1: none; bT = tmax, bD = 1 at the start). t < t_best iff T s bD < bT |det|.
 void edges_closer(bool outside, float U, float V, float W, float Az, float Bz, float Cz, int idx,
                   inout float bT, inout float bD, inout vec2 bB, inout int bI) {
-    bool inside = !outside;  // as in edges_block
-    float det = U + V + W;
-    float T = U * Az + V * Bz + W * Cz;
-    float s = det < 0.0 ? -1.0 : 1.0;
-    float Ts = T * s, ds = det * s;
-    if (inside && Ts > 0.0 && Ts * bD < bT * ds) {
+    float s, ds;
+    float Ts = signed_depth(U, V, W, Az, Bz, Cz, s, ds);
+    if (!outside && Ts > 0.0 && Ts * bD < bT * ds) {
         bT = Ts; bD = ds; bB = vec2(V, W) * s; bI = idx;
     }
 }
