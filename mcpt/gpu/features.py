@@ -29,7 +29,7 @@ import numpy as np
 from ..scene.animation import camera_moves
 from ..shading import emission_texture, metalrough, microfacet, roughness_texture, specular_weights, thindielectric
 from ..shading.camera import camera_uses
-from ..shading.lights import light_uses, search_steps
+from ..shading.lights import count_uses, light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
 from ..shading.sampler import dims_for, layout_defines
@@ -274,8 +274,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
     has = material_types.__contains__
     return Features.of(
         # what the scene uses
-        **(lights or {"lights": n_emissive > 0, "single_light": n_emissive == 1,
-                      "light_steps": search_steps(n_emissive)}), bvh=use_bvh, bvh_dense=bvh_dense,
+        **(lights or count_uses(n_emissive)), bvh=use_bvh, bvh_dense=bvh_dense,
         tri_const=tri_const, diffuse=has("diffuse"), conductor=has("conductor"),
         microfacet=has("conductor") and rough, dielectric=has("dielectric"),
         absorption=has("dielectric") and absorption, plastic=has("plastic"), textures=textures,

@@ -108,11 +108,15 @@ def search_steps(entries: int) -> int:
     return (entries - 1).bit_length() if 2 <= entries <= WRITTEN_OUT_SEARCH_MAX else 0
 
 
+def count_uses(entries: int) -> dict:
+    """The fields of mcpt.gpu.features.Uses that the number of light entries decides."""
+    return {"lights": entries > 0, "single_light": entries == 1, "light_steps": search_steps(entries)}
+
+
 def light_uses(lights: Lights) -> dict:
     """The light fields of mcpt.gpu.features.Uses: which light code a scene compiles."""
     k = lights.kinds
-    return {"lights": lights.entries > 0, "single_light": lights.entries == 1,
-            "light_steps": search_steps(lights.entries), "area_lights": "area" in k,
+    return {**count_uses(lights.entries), "area_lights": "area" in k,
             "point_lights": "point" in k, "spot_lights": "spot" in k,
             "directional_lights": "directional" in k, "sun_lights": "sun" in k, "environment": "environment" in k,
             "envmap": lights.envmap is not None}

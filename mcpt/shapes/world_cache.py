@@ -102,7 +102,7 @@ def world_key(scene: Scene) -> str | None:
         for companion in companions or ():
             files[companion] = cache.file_digest(Path(companion))
     for f in _named_files(doc):
-        if f not in files:
+        if str(Path(f).resolve()) not in files:  # a mesh file, named by another path or the same
             files[f] = cache.file_digest(Path(f))
     return cache.key_of("world", doc, files, versions())
 
