@@ -62,6 +62,19 @@ def downsample(ref: np.ndarray, width: int, height: int) -> np.ndarray:
     return ref.reshape(height, fy, width, fx, -1).mean(axis=(1, 3)).astype(ref.dtype)
 
 
+def to_resolution(ref: np.ndarray, width: int, height: int) -> np.ndarray:
+    """``downsample`` where the reference is finer; where it is coarser by a whole factor (the
+    256x256 references at the GPU runs' 1024x1024), each reference pixel is repeated. A repeated
+    pixel is not the pixel's mean radiance: the relMSE then carries a floor from the edges inside
+    a reference pixel, the same for both renderers, so it ranks them but is not an absolute error."""
+    h, w = ref.shape[:2]
+    if height <= h and width <= w:
+        return downsample(ref, width, height)
+    if height % h or width % w:
+        raise ValueError(f"reference {w}x{h} does not repeat into {width}x{height}")
+    return np.repeat(np.repeat(ref, height // h, axis=0), width // w, axis=1)
+
+
 def luminance(rgb) -> float:
     """Rec. 709 luminance of a linear RGB triple (or the mean of an image's)."""
     r, g, b = (float(v) for v in rgb)

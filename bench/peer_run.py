@@ -209,7 +209,7 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
         if not (d / "reference.exr").exists():
             log(f"peer: {d} has no reference.exr: skipping scene {name}")
             continue
-        refs[name] = common.downsample(np.asarray(read_exr(d / "reference.exr")[0], np.float32)[..., :3],
+        refs[name] = common.to_resolution(np.asarray(read_exr(d / "reference.exr")[0], np.float32)[..., :3],
                                        res, res)
         yml = ref_scene_yaml(d)
         bounces[name] = yml["render"]["bounces"]
@@ -239,6 +239,8 @@ def peer_sweep(cfg, log=print, pcfg: PeerConfig | None = None) -> dict:
                 "mitsuba_variant": pc.variant, "thresholds": list(pc.thresholds),
                 "order": "per (round, scene, spp): mcpt s1, Mitsuba s1, mcpt s2, Mitsuba s2, ...",
                 "time": "each tool's render timer, set-up excluded",
-                "reference": "<scene>/reference.exr (Mitsuba 3.9.1), area-averaged to the resolution"}
+                "reference": "<scene>/reference.exr (Mitsuba 3.9.1), area-averaged to the resolution"
+                             + ("" if res <= 256 else " (repeated: finer than the reference, see "
+                                                      "common.to_resolution)")}
     (out / "PEER.md").write_text("\n".join(report_lines(summary, settings)) + "\n")
     return {"sweep": "peer", "settings": settings, "records": records, "summary": summary}
