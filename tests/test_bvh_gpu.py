@@ -178,6 +178,21 @@ def test_shared_edges_give_each_side_its_edge_function():
     assert np.array_equal(bits, tris.reshape(-1, 3)[addr].view(np.uint32))
 
 
+def test_vertex_tables_count_the_fetches_they_make():
+    """The counters' fetches per ray (TRI_VERT_FETCHES): one texel a distinct vertex when the
+    positions are fetched, none when their bits are compiled in (a lambda once shadowed the
+    positions' name, so fetched tables counted none)."""
+    from mcpt.gpu.features import vertex_tables
+    from mcpt.shapes.geometry import shared_vertices, vertex_bits
+
+    tris = load_mesh(SUZANNE).vertices[load_mesh(SUZANNE).faces[:20]].astype(np.float32)
+    addr, ids = shared_vertices(tris)
+    fetched = vertex_tables(addr, ids.ravel())
+    compiled = vertex_tables(addr, ids.ravel(), vertex_bits(tris, addr))
+    assert f"#define TRI_VERT_FETCHES {len(addr)}\n" in fetched and fetched.count("texelFetch(u_tris") == len(addr)
+    assert "#define TRI_VERT_FETCHES 0\n" in compiled and "texelFetch" not in compiled
+
+
 def test_large_triangles_tested_first_give_the_same_hits(gl):
     """A mesh inside a box of large triangles: build_bvh puts the box in the root's right
     subtree; testing it written out first and traversing from the root's left child

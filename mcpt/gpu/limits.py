@@ -76,14 +76,14 @@ def vertex_tables(vert_addr, tri_vert_ids, vert_pos=()) -> str:
     if len(ids) > TRI_CONST_MAX or len(vert_addr) > 3 * TRI_CONST_MAX:
         raise ValueError(f"at most {TRI_CONST_MAX} triangles have their vertex tables compiled in")
     edges, signed = shared_edges(ids)
-    pos = np.asarray(vert_pos, np.uint32).reshape(-1, 3) if len(vert_pos) else None
-    src = [f"uintBitsToFloat(uvec3({x}u, {y}u, {z}u))" for x, y, z in pos] if pos is not None \
+    bits = np.asarray(vert_pos, np.uint32).reshape(-1, 3) if len(vert_pos) else None
+    src = [f"uintBitsToFloat(uvec3({x}u, {y}u, {z}u))" for x, y, z in bits] if bits is not None \
         else [f"uintBitsToFloat(texelFetch(u_tris, {int(a)}).xyz)" for a in vert_addr]
     ref = lambda c: f"te[{c}]" if c >= 0 else f"-te[{~c}]"  # noqa: E731 (~c: the edge reversed)
     neg = lambda c: f"tn[{c}]" if c >= 0 else f"tp[{~c}]"  # noqa: E731 (its sign tests, once per edge)
     pos = lambda c: f"tp[{c}]" if c >= 0 else f"tn[{~c}]"  # noqa: E731
     return "\n".join((
-        f"#define TRI_VERT_FETCHES {0 if pos is not None else len(vert_addr)}",
+        f"#define TRI_VERT_FETCHES {0 if bits is not None else len(vert_addr)}",
         f"#define TRI_EDGE_COUNT {max(1, len(edges))}",
         "#define TRI_CONST_VERTS " + " ".join(f"tv[{k}] = tri_shear(r, p, {v});" for k, v in enumerate(src)),
         "#define TRI_CONST_EDGES " + " ".join(
