@@ -500,3 +500,14 @@ def test_a_worker_imports_the_set_up_not_the_coordinator():
     library = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                              check=True).stdout.split()
     assert "mcpt.render" in library and not [m for m in library if m.startswith("mcpt.bench")]
+
+
+def test_local_workers_sharing_one_hardware_gpu_get_one_line():
+    """--workers N on a hardware GPU: every local worker draws on that one GPU, where shared
+    contexts lost draws on an H200 (bench/RESULTS.md); on llvmpipe they split the cores: no line."""
+    from mcpt.farm.cluster import shared_gpu_note
+
+    assert shared_gpu_note("llvmpipe (LLVM 15.0.6, 256 bits)", 4) is None
+    assert shared_gpu_note("NVIDIA H200/PCIe/SSE2", 1) is None
+    line = shared_gpu_note("NVIDIA H200/PCIe/SSE2", 2)
+    assert line.startswith("--workers 2:") and "NVIDIA H200/PCIe/SSE2" in line and "\n" not in line

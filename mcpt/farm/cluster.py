@@ -96,6 +96,22 @@ def check_workers(n: int) -> None:
                         "a bigger farm is --scheduler tcp://HOST:8786")
 
 
+#: GL renderers that draw on the CPU (Mesa): local workers split its cores, not a GPU.
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast")
+
+
+def shared_gpu_note(renderer: str, workers: int) -> str | None:
+    """One line when ``workers`` local processes would all draw on the one hardware GPU behind
+    ``renderer`` (the GL_RENDERER string): on an NVIDIA H200, 16 processes sharing the GPU read
+    back targets no shader had written while long draws ran (bench/RESULTS.md, the H200
+    section), which no check of ours can see. None on a software renderer or with one worker."""
+    if workers <= 1 or any(s in renderer.lower() for s in SOFTWARE_RENDERERS):
+        return None
+    return (f"--workers {workers}: every worker draws on the one GPU ({renderer}); processes "
+            "sharing a GPU have lost draws silently during long draws: use one worker per GPU "
+            "(--scheduler, each worker with its own GLCONTEXT_DEVICE_INDEX)")
+
+
 def local_cluster(n: int, lp_threads: int | None = None):
     """A LocalCluster of ``n`` single-threaded worker processes (spawned). On llvmpipe each
     process also draws with LP_NUM_THREADS threads: by default the cores split between workers,
@@ -204,6 +220,9 @@ def _render_on_cluster(p, opts, acc, control, save_checkpoint) -> dict:
                 raise FarmError(f"--scheduler {opts.scheduler}: cannot reach the Dask scheduler "
                                 f"({' '.join(str(exc).split())[:200]})") from None
         else:
+            note = shared_gpu_note(p.renderer.gl.renderer, opts.workers)
+            if note:
+                logging.getLogger("mcpt").warning(note)
             cluster = local_cluster(opts.workers)
             client = Client(cluster)
     timing["cluster_seconds"] = time.perf_counter() - t0
