@@ -29,10 +29,43 @@ uniform ivec4 u_tile;    // x0, y0 (rows from the top), width, height of the til
 uniform float u_clamp;   // biased: largest allowed sample component (off unless --clamp)
 #endif
 
+#if MCPT_COMPUTE
+// The same path tracer dispatched as a compute shader (issue #23: a Hopper GPU runs fragment work
+// on a few of its units, NVIDIA's H100 architecture paper; compute work on all of them). One
+// invocation a pixel of the rectangle u_dispatch (x0, y0 in GL rows from the bottom, width,
+// height); the outputs below are added into the accumulation targets, bound as images after the
+// path-state images, with imageLoad + imageStore: the same float32 add as the fragment path's
+// ONE, ONE blending, in the same order (one invocation a pixel a dispatch), so the same pixels.
+layout(local_size_x = 8, local_size_y = 8) in;
+uniform ivec4 u_dispatch;
+vec4 o_color;
+layout(binding = 4, rgba32f) uniform image2D u_target0;
+#if MCPT_VARIANCE
+vec4 o_square;
+layout(binding = 5, rgba32f) uniform image2D u_target1;
+#endif
+#if MCPT_AOV
+vec4 o_aov_a, o_aov_b;
+#if MCPT_VARIANCE
+layout(binding = 6, rgba32f) uniform image2D u_target_aov_a;
+layout(binding = 7, rgba32f) uniform image2D u_target_aov_b;
+#else
+layout(binding = 5, rgba32f) uniform image2D u_target_aov_a;
+layout(binding = 6, rgba32f) uniform image2D u_target_aov_b;
+#endif
+#endif
+void targets_add(ivec2 px) {
+    imageStore(u_target0, px, imageLoad(u_target0, px) + o_color);
+#if MCPT_VARIANCE
+    imageStore(u_target1, px, imageLoad(u_target1, px) + o_square);
+#endif
+#if MCPT_AOV
+    imageStore(u_target_aov_a, px, imageLoad(u_target_aov_a, px) + o_aov_a);
+    imageStore(u_target_aov_b, px, imageLoad(u_target_aov_b, px) + o_aov_b);
+#endif
+}
+#else
 layout(location = 0) out vec4 o_color;
-// Transparent film (MCPT_ALPHA): the sample in flight's camera ray left the scene. A continued
-// sample had hit something (its path went on), so the flag starts false after a load too.
-bool g_camera_escaped = false;
 #if MCPT_VARIANCE
 layout(location = 1) out vec4 o_square;  // per-pixel sum of squares -> variance of the mean; a: coverage
 #endif
@@ -44,6 +77,10 @@ layout(location = 3) out vec4 o_aov_b;  // normal.xyz, events
 layout(location = 1) out vec4 o_aov_a;
 layout(location = 2) out vec4 o_aov_b;
 #endif
+#endif
+// Transparent film (MCPT_ALPHA): the sample in flight's camera ray left the scene. A continued
+// sample had hit something (its path went on), so the flag starts false after a load too.
+bool g_camera_escaped = false;
 
 // Bounce convention (README, `--bounces`: 0 emitters only, 1 direct light only): emission seen
 // at hit k ends a path with k - 1 scattering events; scattering at hit k is bounce k, allowed
@@ -200,7 +237,14 @@ void sample_over(inout Path P) {
 }
 
 void main() {
+#if MCPT_COMPUTE
+    if (any(greaterThanEqual(ivec2(gl_GlobalInvocationID.xy), u_dispatch.zw))) return;
+    ivec2 frag = u_dispatch.xy + ivec2(gl_GlobalInvocationID.xy);
+#define DISCARD return
+#else
     ivec2 frag = ivec2(gl_FragCoord.xy);
+#define DISCARD discard
+#endif
     ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
     ivec2 local = pixel - u_tile.xy;
     int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
@@ -208,7 +252,7 @@ void main() {
     int j = 0;
 #if MCPT_CONTINUE
     if (u_continue != 0) {
-        if (!path_stored(frag)) discard;  // finished in an earlier draw
+        if (!path_stored(frag)) DISCARD;  // finished in an earlier draw
         P = path_load(frag, j);
         sampler_init(pix, tile_pix, j);
     } else {
@@ -259,5 +303,8 @@ void main() {
 #if MCPT_AOV
     o_aov_a = g_aov_a;
     o_aov_b = g_aov_b;
+#endif
+#if MCPT_COMPUTE
+    targets_add(frag);
 #endif
 }

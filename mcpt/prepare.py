@@ -22,6 +22,7 @@ from pathlib import Path
 from .farm.state import scene_hash
 from .gpu.context import GLContext, shared_context
 from .gpu.features import Features, for_world, loop_limit_for
+from .gpu.options import compute_dispatch
 from .gpu.pack import pack
 from .gpu.pack_cache import cached_pack
 from .gpu.render import Renderer
@@ -80,7 +81,8 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
         raise SceneError(str(scene.source_path or "<scene>"), None, "",
                          "a file of the scene changed while it was read; render again")
     check_camera(scene, world.tris)
-    flags = {"loop_limit": loop_limit_for(gl.renderer), **aov_flags(aovs, False), **(feature_flags or {})}
+    flags = {"loop_limit": loop_limit_for(gl.renderer), "compute": compute_dispatch(),
+             **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:
         flags["sampler"] = sampler
     feats = for_world(world, clamp=clamp is not None, **flags)

@@ -53,6 +53,17 @@ def plan_bands(tile: tuple, samples: int, band_paths: int) -> list[tuple[int, ..
     return out
 
 
+def plan_strips(tile: tuple, samples: int, band_paths: int) -> list[tuple[int, ...]]:
+    """:func:`plan_bands` for the compute dispatch (glsl/pathtrace.frag MCPT_COMPUTE): strips of
+    whole rows of at most ``band_paths`` paths (at least one row), each one rectangle to dispatch;
+    the whole tile when ``band_paths`` is 0."""
+    x0, y0, w, h = tile
+    if not band_paths or w * h * samples <= band_paths:
+        return [(x0, y0, w, h, 0, 1)]
+    rows = max(1, band_paths // (w * samples))
+    return [(x0, y, w, min(rows, y0 + h - y), 0, 1) for y in range(y0, y0 + h, rows)]
+
+
 def part_geometry(band: tuple, width: int, height: int) -> tuple[tuple[int, int, int, int], int]:
     """glsl/fullscreen.vert's ``u_parts`` and its vertex count for ``band`` (plan_bands) in a
     ``width`` x ``height`` window: a point for each block of the part in all tiles of the tile

@@ -126,6 +126,7 @@ class Features:
     variance = property(lambda self: self.options.variance)
     aov = property(lambda self: self.options.aov)
     loop_limit = property(lambda self: self.limits.loop_limit)
+    compute = property(lambda self: self.switches.compute)
     bvh = property(lambda self: self.compiled.bvh)
     bvh_dense = property(lambda self: self.compiled.bvh_dense)
     textures = property(lambda self: self.compiled.textures)
@@ -239,6 +240,7 @@ class Features:
             "MCPT_LOOP_LIMIT": self.limits.loop_limit,
             "MCPT_COUNTERS": b(self.switches.counters),
             "MCPT_CONTINUE": b(self.continues),
+            "MCPT_COMPUTE": b(self.switches.compute),
         }
 
     def preamble(self) -> str:
@@ -258,7 +260,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False, alpha: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
            sampler: str = "sobol", continuation: bool = True, lights: dict | None = None,
-           medium: bool = False, interior_media: bool = False) -> Features:
+           medium: bool = False, interior_media: bool = False, compute: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``sampling``, ``russian_roulette``, ``counters``, ``continuation``: :class:`Switches`;
@@ -285,7 +287,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         bounces=bounces, sampler=sampler, clamp=clamp, variance=variance or alpha, aov=aov, alpha=alpha,
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
                                                              traced=not tri_const, n_lights=n_emissive),
-        sampling=sampling, russian_roulette=russian_roulette, counters=counters, continuation=continuation)
+        sampling=sampling, russian_roulette=russian_roulette, counters=counters, continuation=continuation,
+        compute=compute)
 
 
 def for_world(world, *, bounces: int | None = None, **flags) -> Features:

@@ -4,7 +4,10 @@ lives there, with the derivation that fills all four)."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+
+from ..errors import McptError
 
 # Where the numbers come from (mcpt/shading/sampler.py, which defines the layout once): "sobol"
 # padded Owen-scrambled Sobol' computed in the shader (default: converges faster, no per-pass
@@ -54,7 +57,26 @@ class Switches:
     continuation: bool = True       # off: never continue long paths in further draws
     uber: bool = False              # compile every optional code path (Features.everything)
     equiangular: bool = True        # issue #25: equiangular samples towards point/spot lights in a medium
+    compute: bool = False           # issue #23: dispatch the path tracer as a compute shader (MCPT_DISPATCH)
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
             raise ValueError(f"sampling must be one of {SAMPLING_MODES}, got {self.sampling!r}")
+
+
+#: How the path tracer runs (``MCPT_DISPATCH``): "fragment" (default: a full-screen draw, measured
+#: on llvmpipe and on NVIDIA H100/H200) or "compute" (issue #23: the same GLSL as a compute
+#: shader, for GPUs that run fragment work on a few of their units, such as Hopper's).
+DISPATCHES = ("fragment", "compute")
+
+
+class DispatchError(McptError, ValueError):
+    """MCPT_DISPATCH names no dispatch; one line for the user."""
+
+
+def compute_dispatch(environ=os.environ) -> bool:
+    """Whether ``MCPT_DISPATCH`` asks for the compute dispatch (Switches.compute)."""
+    value = (environ.get("MCPT_DISPATCH") or "fragment").strip().lower()
+    if value not in DISPATCHES:
+        raise DispatchError(f"MCPT_DISPATCH={value!r}: choose one of {', '.join(DISPATCHES)}")
+    return value == "compute"

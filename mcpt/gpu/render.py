@@ -34,12 +34,12 @@ from ..shading.sampler import RandomNumbers
 from ..shading.sobol import seed32
 from . import aov as aov_mod
 from . import shader
-from .bands import BAND_PATHS, BAND_SECONDS, padded, part_geometry, plan_bands
+from .bands import BAND_PATHS, BAND_SECONDS, padded, part_geometry, plan_bands, plan_strips
 from .context import GLContext
 from .features import Features, samples_per_draw
 from .host_memory import available_bytes, host_bytes
 from .pack import Packed
-from .path_state import PathState
+from .path_state import STATE_IMAGES, PathState
 from .tbo import GL_R32F, create_tbo
 
 log = logging.getLogger("mcpt")
@@ -135,8 +135,11 @@ class Renderer:
         self.aov_target = 1 + int(features.variance) if features.aov else None
         check_host_memory(self.width, self.height, n_targets)
         t0 = time.perf_counter()
-        self.program = shader.program(ctx, "fullscreen.vert", "pathtrace.frag", features.preamble(),
-                                      features.key)
+        if features.compute:  # issue #23: the same GLSL as a compute shader (glsl/pathtrace.frag)
+            self.program = shader.compute_program(ctx, "pathtrace.frag", features.preamble(), features.key)
+        else:
+            self.program = shader.program(ctx, "fullscreen.vert", "pathtrace.frag", features.preamble(),
+                                          features.key)
         t1 = time.perf_counter()
         self.tbos = {}
         for name, arr in packed.buffers.items():
@@ -168,7 +171,7 @@ class Renderer:
                         for _ in range(n_targets)]
         self.fbo = ctx.framebuffer(color_attachments=self.targets)
         self.paths = PathState(ctx, self.width, self.height) if features.continues else None
-        self.vao = ctx.vertex_array(self.program, [])
+        self.vao = None if features.compute else ctx.vertex_array(self.program, [])
         for name, value in packed.uniforms.items():
             self._uniform(name, value)
         if clamp is not None:
@@ -215,14 +218,18 @@ class Renderer:
         todo = [(i, self.tiles[i]) for i in (range(len(self.tiles)) if tiles is None else tiles)]
         self._uniform("u_sobol_seed", seed32(seed))
         self.fbo.use()
-        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self._clear_targets()
         if carry is not None:
             for i, target in enumerate(self.targets):
                 target.write(np.ascontiguousarray(np.flipud(carry[i]), np.float32).tobytes())
+            self._clear_targets(clear=False)
         ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)  # points: bands.py
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         for t in self.tbos.values():
             t.bind()
+        if self.features.compute:  # the targets are images after the path state's
+            for i, target in enumerate(self.targets):
+                target.bind_to_image(STATE_IMAGES + i, read=True, write=True)
         if self.paths is not None:
             self.paths.bind()
             self._uniform("u_continue", 0)
@@ -236,7 +243,8 @@ class Renderer:
             while p < stop:
                 n = min(spd - p % spd, chunk - p % chunk, stop - p)  # on the global grid
                 self._uniform("u_samples", n)
-                bands = [plan_bands(tile, n, self._band_paths() if drop_draw else 0) for _, tile in todo]
+                plan = plan_strips if self.features.compute else plan_bands
+                bands = [plan(tile, n, self._band_paths() if drop_draw else 0) for _, tile in todo]
                 t0 = time.perf_counter()
                 # A draw that may be dropped keeps the passes the target holds that the
                 # accumulator does not (after a draw that ended inside a chunk), to stop with.
@@ -297,19 +305,12 @@ class Renderer:
             self._uniform("u_rand_stride", w * h)
             self._draws += 1
             for band in parts:
-                bx, by, bw, bh = band[:4]
-                # GL rows count from the bottom; tiles and bands are given from the top.
-                ctx.scissor = (bx, self.height - by - bh, bw, bh)
-                geometry, vertices = part_geometry(band, self.width, self.height)
-                self._uniform("u_parts", geometry)
-                mode = moderngl.TRIANGLES if vertices == 3 else moderngl.POINTS
-                ctx.viewport = (0, 0, self.width, self.height) if vertices == 3 else padded(self.width, self.height)
+                draw = self._band_draw(band)
                 if self.paths is not None:
                     self.paths.reset_count()
-                self.vao.render(mode, vertices=vertices)
+                draw()
                 if self.paths is not None:  # long paths: further draws until all have ended
-                    self.paths.finish(lambda m=mode, v=vertices: self.vao.render(m, vertices=v),
-                                      lambda v: self._uniform("u_continue", v),
+                    self.paths.finish(draw, lambda v: self._uniform("u_continue", v),
                                       limit=n * (self.features.bounces + 2))
                 done += 1
                 if drop_draw is not None and done < total:
@@ -317,6 +318,29 @@ class Renderer:
                     if drop_draw(p, done / total):
                         return False
         return True
+
+    def _band_draw(self, band):
+        """Set up ``band`` (plan_bands / plan_strips) and return the call that draws it (again
+        for each continuation draw)."""
+        ctx = self.gl.ctx
+        bx, by, bw, bh = band[:4]
+        y = self.height - by - bh  # GL rows count from the bottom; tiles and bands from the top
+        if self.features.compute:
+            # One invocation a pixel of the rectangle; the barrier makes its image adds visible to
+            # the next dispatch's loads and to the read-back.
+            self._uniform("u_dispatch", (bx, y, bw, bh))
+            groups = (-(-bw // 8), -(-bh // 8))  # glsl/pathtrace.frag's 8x8 work group
+
+            def dispatch():
+                self.program.run(*groups)
+                ctx.memory_barrier()
+            return dispatch
+        ctx.scissor = (bx, y, bw, bh)
+        geometry, vertices = part_geometry(band, self.width, self.height)
+        self._uniform("u_parts", geometry)
+        mode = moderngl.TRIANGLES if vertices == 3 else moderngl.POINTS
+        ctx.viewport = (0, 0, self.width, self.height) if vertices == 3 else padded(self.width, self.height)
+        return lambda: self.vao.render(mode, vertices=vertices)
 
     def result(self, total: np.ndarray, spp: int, seed: int, seconds: float,
                random_seconds: float) -> RenderResult:
@@ -351,13 +375,23 @@ class Renderer:
     def _read_and_clear(self, dtype=np.float64) -> np.ndarray:
         """The accumulation targets as (targets, H, W, 4), row 0 at the top; then cleared."""
         out = self._read_targets(dtype)
-        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self._clear_targets()
         return out
+
+    def _clear_targets(self, clear: bool = True) -> None:
+        """Clear the accumulation targets (``clear``), then, for the compute dispatch, wait for
+        what was written to them: llvmpipe defers a framebuffer clear past a later compute
+        dispatch, whose adds then vanished (measured: the second read-back of a render was 0)."""
+        if clear:
+            self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        if self.features.compute:
+            self.gl.ctx.finish()
 
     def release(self) -> None:
         for t in list(self.tbos.values()) + self.random:
             t.release()
-        self.vao.release()
+        if self.vao is not None:
+            self.vao.release()
         self.fbo.release()
         if self.paths is not None:
             self.paths.release()

@@ -180,5 +180,20 @@ def program(ctx, vertex: str, fragment: str, preamble: str, key, *, fragment_tex
     return prog
 
 
+def compute_program(ctx, entry: str, preamble: str, key):
+    """Compile (or fetch from the cache) glsl/``entry`` as a compute shader for ``key`` (the same
+    assembly as :func:`program`'s fragment stage; the entry declares its own work group)."""
+    ck = (id(ctx), "compute", entry, key, None)
+    if ck in _cache:
+        return _cache[ck]
+    cs = Source(entry, preamble)
+    try:
+        prog = ctx.compute_shader(cs.text)
+    except Exception as exc:  # moderngl.Error carries the driver's log
+        raise ShaderError(cs.translate(str(exc)).strip()) from None
+    _cache[ck] = prog
+    return prog
+
+
 def clear_cache() -> None:
     _cache.clear()
