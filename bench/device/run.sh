@@ -6,6 +6,9 @@
 # PEER_S, SUITE_S, TP_S: seconds each step may take (the device tool allows 600 a call).
 export PYTHONUNBUFFERED=1
 T0=$(date +%s); el() { echo "== $(( $(date +%s) - T0 )) s: $*"; }
+# Only on the lent machine (its driver lives in /usr/local/nvidia): unpacking GL loaders into / of
+# any other machine would replace its own.
+[ -d /usr/local/nvidia ] || { echo "run.sh: not a lent GPU machine (no /usr/local/nvidia)"; exit 2; }
 for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
 f=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json; [ -f $f ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$f
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader
