@@ -60,24 +60,16 @@ class _Mcpt:
     renderer = "mcpt"
 
     def __init__(self, path: Path, cfg, res: int, sampler: str):
-        import os
-
         from mcpt.api import prepare
 
-        # "sobol@compute": the sampler with MCPT_DISPATCH=compute (bench/gpu_peer.py, issue #23)
+        # "sobol@compute": the sampler with the compute dispatch (bench/gpu_peer.py, issue #23);
+        # without "@", MCPT_DISPATCH decides as for any render.
         self.sampler = sampler  # kept whole: the records of the two dispatches stay apart
         sampler, _, dispatch = sampler.partition("@")
         self.label = f"mcpt {sampler}" + (f" {dispatch}" if dispatch else "")
-        old = os.environ.get("MCPT_DISPATCH")
-        os.environ["MCPT_DISPATCH"] = dispatch or old or "fragment"
-        try:
-            self.p = prepare(path, seed=cfg.seed, resolution=(res, res), gl_backend=cfg.gl_backend,
-                             sampler=sampler)
-        finally:
-            if old is None:
-                os.environ.pop("MCPT_DISPATCH")
-            else:
-                os.environ["MCPT_DISPATCH"] = old
+        flags = {"compute": dispatch == "compute"} if dispatch else None
+        self.p = prepare(path, seed=cfg.seed, resolution=(res, res), gl_backend=cfg.gl_backend,
+                         sampler=sampler, feature_flags=flags)
         t0 = time.perf_counter()
         self._render(1, cfg.seed)  # llvmpipe compiles at the first draw
         self.info = {"setup_seconds": self.p.setup_seconds, "triangles": self.p.world.n_triangles,

@@ -238,12 +238,12 @@ class Renderer:
         self._draws = 0
         # Passes in the target at the next read-back: a carried target holds its chunk's passes.
         last = (start // chunk) * chunk if carry is not None else start
+        plan = plan_strips if self.features.compute else plan_bands
         p = start
         try:
             while p < stop:
                 n = min(spd - p % spd, chunk - p % chunk, stop - p)  # on the global grid
                 self._uniform("u_samples", n)
-                plan = plan_strips if self.features.compute else plan_bands
                 bands = [plan(tile, n, self._band_paths() if drop_draw else 0) for _, tile in todo]
                 t0 = time.perf_counter()
                 # A draw that may be dropped keeps the passes the target holds that the

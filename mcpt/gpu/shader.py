@@ -166,33 +166,35 @@ def program(ctx, vertex: str, fragment: str, preamble: str, key, *, fragment_tex
     """Compile (or fetch from the cache) the program for ``key`` on ``ctx`` from the glsl/ files
     ``vertex`` and ``fragment``, or with ``fragment_text`` from that fragment source (a program of
     the caller's; ``fragment`` names it in compiler messages, its includes come from glsl/)."""
-    ck = (id(ctx), vertex, fragment, key, fragment_text)
-    if ck in _cache:
-        return _cache[ck]
-    vs, fs = Source(vertex, preamble), Source(fragment, preamble, fragment_text)
-    try:
-        prog = ctx.program(vertex_shader=vs.text, fragment_shader=fs.text)
-    except Exception as exc:  # moderngl.Error carries the driver's log
-        msg = str(exc)
-        which = fs if "fragment" in msg.lower() or "GLSL Compiler failed" in msg else vs
-        raise ShaderError(which.translate(msg).strip()) from None
-    _cache[ck] = prog
-    return prog
+    def build():
+        vs, fs = Source(vertex, preamble), Source(fragment, preamble, fragment_text)
+        return _compiled(lambda: ctx.program(vertex_shader=vs.text, fragment_shader=fs.text),
+                         lambda msg: fs if "fragment" in msg.lower() or "GLSL Compiler failed" in msg else vs)
+    return _cached((id(ctx), vertex, fragment, key, fragment_text), build)
 
 
 def compute_program(ctx, entry: str, preamble: str, key):
     """Compile (or fetch from the cache) glsl/``entry`` as a compute shader for ``key`` (the same
     assembly as :func:`program`'s fragment stage; the entry declares its own work group)."""
-    ck = (id(ctx), "compute", entry, key, None)
-    if ck in _cache:
-        return _cache[ck]
-    cs = Source(entry, preamble)
+    def build():
+        cs = Source(entry, preamble)
+        return _compiled(lambda: ctx.compute_shader(cs.text), lambda msg: cs)
+    return _cached((id(ctx), "compute", entry, key, None), build)
+
+
+def _cached(ck, build):
+    if ck not in _cache:
+        _cache[ck] = build()
+    return _cache[ck]
+
+
+def _compiled(make, source_of):
+    """``make()``, or a ShaderError with the driver's log in file:line terms of ``source_of(log)``."""
     try:
-        prog = ctx.compute_shader(cs.text)
+        return make()
     except Exception as exc:  # moderngl.Error carries the driver's log
-        raise ShaderError(cs.translate(str(exc)).strip()) from None
-    _cache[ck] = prog
-    return prog
+        msg = str(exc)
+        raise ShaderError(source_of(msg).translate(msg).strip()) from None
 
 
 def clear_cache() -> None:

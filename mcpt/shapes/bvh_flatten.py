@@ -74,9 +74,9 @@ def flatten(levels: list[Level], order: np.ndarray, tri_lo: np.ndarray, tri_hi: 
     # Interior boxes and subtree sizes bottom-up. The i-th interior node of a level has the next
     # level's nodes 2i and 2i + 1 as children (both builders number them so), so the children are
     # strided slices of the next level, not gathers.
+    interior = [lv.first_id + np.flatnonzero(lv.left >= 0) for lv in levels]  # per level
     subtree = np.ones(n_nodes, np.int64)
-    for lv in reversed(levels):
-        ids = lv.first_id + np.flatnonzero(lv.left >= 0)
+    for ids in reversed(interior):
         if ids.size == 0:
             continue
         kids = slice(int(left[ids[0]]), int(left[ids[-1]]) + 2, 2)
@@ -88,8 +88,7 @@ def flatten(levels: list[Level], order: np.ndarray, tri_lo: np.ndarray, tri_hi: 
     # Depth-first pre-order: left child right after its parent, right child after the whole
     # left subtree. Lets the shader skip storing the left index.
     pre = np.zeros(n_nodes, np.int64)
-    for lv in levels:
-        ids = lv.first_id + np.flatnonzero(lv.left >= 0)
+    for ids in interior:
         lc = left[ids]
         pre[lc] = pre[ids] + 1
         pre[lc + 1] = pre[ids] + 1 + subtree[lc]
