@@ -27,9 +27,27 @@ const uint BVH_LEAF_ONE = 0x10000000u;   // ... and the leaf's triangle count ab
 #endif
 // Debug counters (MCPT_COUNTERS, bench/counters.py): per-ray work, summed by atomics.
 #if MCPT_COUNTERS
-layout(std430, binding = 1) buffer BvhCounters { uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow; };
+layout(std430, binding = 1) buffer BvhCounters {
+    uint c_rays, c_iterations, c_fetches, c_nodes, c_tris, c_shadow, c_batch, c_lanes;
+};
 uint g_iter = 0u, g_fetch = 0u, g_node = 0u, g_tri = 0u;
-#define BVH_COUNT(it, f) (g_iter += uint(it), g_fetch += uint(f))
+float g_batch = 0.0;
+#ifdef GL_ARB_shader_ballot
+// SIMD batch iterations (issue #23): llvmpipe (and a GPU warp) runs a loop for all lanes of a batch
+// while any lane needs it, so a traversal costs its batch's slowest lane. Each active lane adds
+// 1 / (active lanes) per iteration: a batch's lanes add up to one per iteration the batch ran, and
+// iterations / (lanes x batch iterations) is the share of lane slots doing work (bench/counters.py).
+// The extension is enabled in the counters build only (mcpt/gpu/features.py preamble).
+float batch_share() {
+    uvec2 b = unpackUint2x32(ballotARB(true));
+    return 1.0 / float(bitCount(b.x) + bitCount(b.y));
+}
+#define BATCH_LANES gl_SubGroupSizeARB
+#else
+float batch_share() { return 0.0; }  // no ballot: no batch count (reported as unknown)
+#define BATCH_LANES 0u
+#endif
+#define BVH_COUNT(it, f) (g_iter += uint(it), g_fetch += uint(f), g_batch += (it) > 0 ? batch_share() : 0.0)
 #define BVH_COUNT_NODE() (g_node++)
 #define BVH_COUNT_TRIS(n) (g_tri += uint(n))
 #else
@@ -320,7 +338,9 @@ bool trace(Ray r, inout Hit h, bool any_hit) {
 void bvh_count_flush(bool shadow) {
     atomicAdd(c_rays, 1u); atomicAdd(c_iterations, g_iter); atomicAdd(c_fetches, g_fetch);
     atomicAdd(c_nodes, g_node); atomicAdd(c_tris, g_tri); atomicAdd(c_shadow, shadow ? 1u : 0u);
-    g_iter = 0u; g_fetch = 0u; g_node = 0u; g_tri = 0u;
+    // Batch iterations in 1/256ths (a sum of 1/k, k <= 8 on llvmpipe: exact in float).
+    atomicAdd(c_batch, uint(g_batch * 256.0 + 0.5)); atomicMax(c_lanes, uint(BATCH_LANES));
+    g_iter = 0u; g_fetch = 0u; g_node = 0u; g_tri = 0u; g_batch = 0.0;
 }
 #define BVH_FLUSH(shadow) bvh_count_flush(shadow)
 #else

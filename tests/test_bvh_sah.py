@@ -132,6 +132,30 @@ def test_counters_are_compiled_out_by_default_and_add_up(gl):
     assert 1.0 <= m["node_steps_per_ray"] < 60.0
 
 
+def test_lane_utilization_counts_the_batches_slowest_lane(gl, tmp_path):
+    """The counters' SIMD view (issue #23): a batch runs the traversal loop while any of its lanes
+    needs it. With the same work on every lane (no BVH: every ray tests every triangle, camera
+    rays only) the lane slots are all used but for the few batches llvmpipe runs part-filled at
+    tile edges; a BVH, where rays take different paths, leaves most slots idle."""
+    from mcpt.bench.counters import measure
+    if "GL_ARB_shader_ballot" not in gl.ctx.extensions:
+        pytest.skip("the driver counts no SIMD batches (no GL_ARB_shader_ballot)")
+    rng = np.random.default_rng(1)
+    corners = rng.uniform([-0.5, 0.2, -0.5], [0.5, 1.5, 0.5], (60, 1, 3)) + [[0, 0, 0], [0.02, 0, 0], [0, 0.02, 0]]
+    (tmp_path / "bits.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in corners.reshape(-1, 3))
+                                       + "".join(f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}\n" for i in range(60)))
+    scene = (ROOT / "scenes" / "cornell-box.yaml").read_text().replace("file: cornell/", f"file: {CORNELL}/")
+    (tmp_path / "s.yaml").write_text(scene + f"  - file: {tmp_path / 'bits.obj'}\n    material: white\n")
+    same = measure(tmp_path / "s.yaml", resolution=(256, 256), bounces=0, feature_flags={"bvh": False})
+    assert not same["bvh"] and same["shadow_rays"] == 0
+    assert same["iterations_per_ray"] == 24  # 96 triangles, 4 an iteration (glsl/bvh.glsl trace_brute)
+    assert same["batch_lanes"] >= 4 and 0.95 < same["lane_utilization"] <= 1.0
+    varied = measure(ROOT / "scenes" / "bunny-metal.yaml", resolution=(64, 64), bounces=2)
+    assert varied["bvh"] and varied["batch_lanes"] == same["batch_lanes"]
+    assert varied["lane_utilization"] < 0.6
+    assert varied["batch_iterations_per_ray"] * varied["batch_lanes"] > varied["iterations_per_ray"] / 0.6
+
+
 def test_large_meshes_fall_back_to_the_longest_axis_median(monkeypatch):
     import mcpt.shapes.bvh_build as bvh_mod
 

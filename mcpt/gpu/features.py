@@ -246,6 +246,11 @@ class Features:
     def preamble(self) -> str:
         defines = self.defines()
         lines = [f"#define {k} {v}" for k, v in defines.items()]
+        if defines["MCPT_COUNTERS"]:
+            # Ballots count a SIMD batch's active lanes (glsl/bvh.glsl batch_share); before any
+            # code, as GLSL wants. A driver without them warns and the count reads unknown.
+            lines[:0] = ["#extension GL_ARB_shader_ballot : enable",
+                         "#extension GL_ARB_gpu_shader_int64 : enable"]
         if defines["MCPT_VERT_COUNT"]:
             u = self.compiled
             lines.append(vertex_tables(u.vert_addr, u.tri_vert_ids, u.vert_pos))
