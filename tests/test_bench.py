@@ -297,3 +297,28 @@ def test_peer_sweep_with_a_broken_mitsuba_says_so_once(gl, tmp_path, monkeypatch
     assert {r["renderer"] for r in res["records"]} == {"mcpt"}
     assert {r["scene"] for r in res["records"]} == {"cornell", "cornell-sphere-100k"}
     assert res["summary"]["mitsuba"]["available"] is False
+
+
+def test_coherence_bound_changes_only_the_scramble_key(gl, tmp_path):
+    """bench/coherence.py's side B differs from the shipped shaders by the Sobol' scramble's key
+    alone (the pixel's 4x2 block): its lanes of a batch draw the same numbers, so its traversal
+    loops use more of each batch, and its image is the same scene (means agree within noise)."""
+    from mcpt.bench import coherence
+    from mcpt.gpu import shader
+
+    shipped = shader.glsl_dir()
+    b = coherence.block_shaders(tmp_path)
+    changed = [f.name for f in sorted(shipped.glob("*.glsl")) if f.read_text() != (b / f.name).read_text()]
+    assert changed == ["sobol.glsl"] and coherence.PER_BLOCK in (b / "sobol.glsl").read_text()
+    try:
+        r = coherence.compare(ROOT / "scenes" / "bunny-metal.yaml", {"A": None, "B": b},
+                              spp=4, rounds=2, resolution=(64, 48))
+    finally:
+        coherence._use(None)
+    assert shader.glsl_dir() == shipped
+    a, bb = r["A"], r["B"]
+    assert a["paths_per_cpu_s"] > 0 and bb["paths_per_cpu_s"] > 0
+    assert a["image_mean"] != bb["image_mean"]  # other numbers ...
+    assert bb["image_mean"] == pytest.approx(a["image_mean"], rel=0.1)  # ... the same scene
+    if a["lane_utilization"] is not None:  # the driver counts batches (GL_ARB_shader_ballot)
+        assert bb["lane_utilization"] > a["lane_utilization"]
