@@ -322,3 +322,30 @@ def test_coherence_bound_changes_only_the_scramble_key(gl, tmp_path):
     assert bb["image_mean"] == pytest.approx(a["image_mean"], rel=0.1)  # ... the same scene
     if a["lane_utilization"] is not None:  # the driver counts batches (GL_ARB_shader_ballot)
         assert bb["lane_utilization"] > a["lane_utilization"]
+
+
+def test_ray_order_regroups_rays_without_changing_their_hits(gl):
+    """bench/ray_order.py: each 8 consecutive rays of an order fill one 4x2 batch of the probe,
+    and a ray's hit does not depend on where it is traced (so orders compare the same work)."""
+    from mcpt.bench import ray_order
+    from mcpt.scene import load_scene
+    from mcpt.shapes.world import load_world
+
+    order = np.arange(64)[::-1]
+    slots = ray_order.batch_layout(order, 16)
+    assert sorted(slots) == list(range(64))
+    assert list(slots[[0, 1, 2, 3, 16, 17, 18, 19]]) == list(order[:8])  # batch 0: x 0-3, rows 0-1
+    assert list(slots[[4, 5, 6, 7, 20, 21, 22, 23]]) == list(order[8:16])
+    codes = ray_order.morton(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]), 1)
+    assert list(codes) == [0, 1, 2, 3]
+
+    scene = load_scene(ROOT / "scenes" / "bunny-metal.yaml")
+    tracer = ray_order.Tracer(gl, load_world(scene), 32)
+    o, d = ray_order.camera_rays(scene.camera, 32, 32)
+    plain, _ = tracer.trace(o, d)
+    assert (plain[:, 1] > 0).mean() > 0.5  # the box, the bunny (the open side misses)
+    shuffled = ray_order.batch_layout(np.random.default_rng(0).permutation(len(o)), 32)
+    moved, util = tracer.trace(o[shuffled], d[shuffled], counters=True)
+    assert np.array_equal(moved, plain[shuffled])
+    if util is not None:
+        assert 0.0 < util <= 1.0
