@@ -26,8 +26,8 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", type=int, nargs="+", default=[4, 16, 64])
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--variant", default="cuda_ad_rgb", help="Mitsuba variant (default cuda_ad_rgb)")
-    ap.add_argument("--samplers", default="sobol,sobol@compute",
-                    help="mcpt samplers, comma-separated; SAMPLER@compute: with MCPT_DISPATCH=compute")
+    ap.add_argument("--samplers", default="sobol,sobol@compute,sobol@wavefront",
+                    help="mcpt samplers, comma-separated; SAMPLER@DISPATCH: with MCPT_DISPATCH=DISPATCH")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
     cfg = sweeps.config(True, out=a.out, gl_backend="egl")

@@ -61,13 +61,14 @@ class _Mcpt:
 
     def __init__(self, path: Path, cfg, res: int, sampler: str):
         from mcpt.api import prepare
+        from mcpt.gpu.options import dispatch_flags
 
-        # "sobol@compute": the sampler with the compute dispatch (bench/gpu_peer.py, issue #23);
-        # without "@", MCPT_DISPATCH decides as for any render.
+        # "sobol@compute" / "sobol@wavefront": the sampler with that dispatch (bench/gpu_peer.py,
+        # issue #23); without "@", MCPT_DISPATCH decides as for any render.
         self.sampler = sampler  # kept whole: the records of the two dispatches stay apart
         sampler, _, dispatch = sampler.partition("@")
         self.label = f"mcpt {sampler}" + (f" {dispatch}" if dispatch else "")
-        flags = {"compute": dispatch == "compute"} if dispatch else None
+        flags = dispatch_flags({"MCPT_DISPATCH": dispatch}) if dispatch else None
         self.p = prepare(path, seed=cfg.seed, resolution=(res, res), gl_backend=cfg.gl_backend,
                          sampler=sampler, feature_flags=flags)
         t0 = time.perf_counter()

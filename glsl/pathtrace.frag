@@ -36,7 +36,9 @@ uniform float u_clamp;   // biased: largest allowed sample component (off unless
 // height); the outputs below are added into the accumulation targets, bound as images after the
 // path-state images, with imageLoad + imageStore: the same float32 add as the fragment path's
 // ONE, ONE blending, in the same order (one invocation a pixel a dispatch), so the same pixels.
+#if !MCPT_WAVE  // glsl/wavefront.glsl declares its own work group
 layout(local_size_x = 8, local_size_y = 8) in;
+#endif
 uniform ivec4 u_dispatch;
 vec4 o_color;
 layout(binding = 4, rgba32f) uniform image2D u_target0;
@@ -97,14 +99,21 @@ bool g_camera_escaped = false;
 // ng's side, a refraction on the other: with shading normals this is the light-leak check). ns,
 // the shading normal (interpolated vertex normals, else ng), is what the BSDF sees.
 //
-// One step: trace P.ray, gather what hit P.k adds and scatter. Returns false when the path has
-// ended, else P.ray is the next ray to trace, for hit P.k. Each piece lives in the file of its
-// concept: a new light type or BSDF goes into its own files and the dispatches of lights.glsl
-// and materials.glsl, not here.
+// One step: trace P.ray, gather what hit P.k adds and scatter (path_hit). Returns false when the
+// path has ended, else P.ray is the next ray to trace, for hit P.k. Each piece lives in the file
+// of its concept: a new light type or BSDF goes into its own files and the dispatches of
+// lights.glsl and materials.glsl, not here.
+bool path_hit(inout Path P, Ray ray, bool found, Hit h);
 bool path_step(inout Path P) {
     Hit h;
     Ray ray = P.ray;
     bool found = trace_closest(ray, h);
+    return path_hit(P, ray, found, h);
+}
+
+// What hit P.k (found: h, of ray = P.ray) adds, and the scattering there; the wavefront dispatch
+// (glsl/wavefront.glsl) calls it with a hit traced by another kernel.
+bool path_hit(inout Path P, Ray ray, bool found, Hit h) {
 #if MCPT_MEDIUM
     int event = medium_event(P, found, h);  // glsl/medium_scatter.glsl
     if (event != MEDIUM_PASS) return event == MEDIUM_SCATTERED;
@@ -236,6 +245,9 @@ void sample_over(inout Path P) {
 #endif
 }
 
+#if MCPT_WAVE
+#include "wavefront.glsl"
+#else
 void main() {
 #if MCPT_COMPUTE
     if (any(greaterThanEqual(ivec2(gl_GlobalInvocationID.xy), u_dispatch.zw))) return;
@@ -308,3 +320,4 @@ void main() {
     targets_add(frag);
 #endif
 }
+#endif  // MCPT_WAVE

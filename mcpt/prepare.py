@@ -20,9 +20,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .farm.state import scene_hash
+from .gpu import wavefront
 from .gpu.context import GLContext, shared_context
 from .gpu.features import Features, for_world, loop_limit_for
-from .gpu.options import compute_dispatch
+from .gpu.options import DispatchError, dispatch_flags
 from .gpu.pack import pack
 from .gpu.pack_cache import cached_pack
 from .gpu.render import Renderer
@@ -81,13 +82,15 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
         raise SceneError(str(scene.source_path or "<scene>"), None, "",
                          "a file of the scene changed while it was read; render again")
     check_camera(scene, world.tris)
-    flags = {"loop_limit": loop_limit_for(gl.renderer), "compute": compute_dispatch(),
+    flags = {"loop_limit": loop_limit_for(gl.renderer), **dispatch_flags(),
              **aov_flags(aovs, False), **(feature_flags or {})}
     if sampler is not None:
         flags["sampler"] = sampler
     feats = for_world(world, clamp=clamp is not None, **flags)
     if features_mode == "all":
         feats = feats.everything()
+    if feats.wavefront and (missing := wavefront.unsupported(feats)):
+        raise DispatchError(f"MCPT_DISPATCH=wavefront cannot render {missing}; use fragment or compute")
     renderer = Renderer(gl, feats, cached_pack(world, feats, pack, cache), clamp=clamp)
     return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0, features_mode,
                     clamp, tuple(aovs), tuple(overrides), gl_backend, digest)

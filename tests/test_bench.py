@@ -270,15 +270,17 @@ def test_peer_renders_every_mcpt_sampler_with_that_sampler(monkeypatch, tmp_path
 
     seen = []
 
-    def prepare(scene, *, sampler=None, **kw):
-        seen.append(sampler)
+    def prepare(scene, *, sampler=None, feature_flags=None, **kw):
+        seen.append((sampler, feature_flags))
         raise RuntimeError("stop here")
 
     monkeypatch.setattr(mcpt.api, "prepare", prepare)
-    for s in ("sobol", "independent"):
+    for s in ("sobol", "independent", "sobol@compute", "sobol@wavefront"):
         with pytest.raises(RuntimeError):
             peer_run._Mcpt(tmp_path / "x.yaml", type("C", (), {"seed": 0, "gl_backend": None})(), 8, s)
-    assert seen == ["sobol", "independent"]
+    assert seen == [("sobol", None), ("independent", None),
+                    ("sobol", {"compute": True, "wavefront": False}),  # SAMPLER@DISPATCH (gpu_peer.py)
+                    ("sobol", {"compute": True, "wavefront": True})]
 
 
 def test_peer_sweep_with_a_broken_mitsuba_says_so_once(gl, tmp_path, monkeypatch, peer_folder):
@@ -349,3 +351,12 @@ def test_ray_order_regroups_rays_without_changing_their_hits(gl):
     assert np.array_equal(moved, plain[shuffled])
     if util is not None:
         assert 0.0 < util <= 1.0
+
+
+def test_dispatch_bench_renders_every_dispatch_to_the_same_bits(gl):
+    from mcpt.bench import dispatch
+
+    r = dispatch.compare(ROOT / "scenes" / "bunny-metal.yaml", ["fragment", "compute", "wavefront"],
+                         spp=2, rounds=2, resolution=(24, 16))
+    assert r["same_bits"] and r["paths"] == 2 * 2 * 24 * 16
+    assert all(r["cpu_s"][m] > 0 and r["wall_s"][m] > 0 for m in ("fragment", "compute", "wavefront"))

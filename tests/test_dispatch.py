@@ -1,7 +1,9 @@
 """The compute dispatch (MCPT_DISPATCH=compute, issue #23): glsl/pathtrace.frag run as a compute
 shader adds its outputs into the accumulation targets with imageLoad + imageStore, the same
 float32 adds in the same order as the fragment path's blending: the same bits, here on llvmpipe,
-for every output (beauty, squares, AOVs, alpha), both samplers, continued paths and bands."""
+for every output (beauty, squares, AOVs, alpha), both samplers, continued paths and bands.
+The wavefront dispatch (MCPT_DISPATCH=wavefront: shade and trace kernels, rays regrouped between
+them) traces every ray and adds every sample as the fragment path does: the same bits too."""
 
 from __future__ import annotations
 
@@ -11,8 +13,9 @@ import pytest
 from mcpt.api import Options, prepare, run
 from mcpt.gpu.bands import plan_strips
 from mcpt.gpu.features import Features
-from mcpt.gpu.options import DispatchError, compute_dispatch
+from mcpt.gpu.options import DispatchError, dispatch_flags
 
+from .conftest import ROOT
 from .test_farm import folder, invoke, same_bits  # noqa: F401 (folder: a fixture)
 from .test_render import CORNELL, FURNACE
 from .test_stop_latency import _same, _sums
@@ -22,8 +25,9 @@ def _render(monkeypatch, mode, scene, spp, **kw):
     monkeypatch.setenv("MCPT_DISPATCH", mode)
     p = prepare(scene, cache=False, **kw)
     try:
-        assert p.features.defines()["MCPT_COMPUTE"] == int(mode == "compute")
-        assert (p.renderer.vao is None) == (mode == "compute")
+        assert p.features.defines()["MCPT_COMPUTE"] == int(mode != "fragment")
+        assert p.features.defines()["MCPT_WAVE"] == int(mode == "wavefront")
+        assert (p.renderer.vao is None) == (mode != "fragment")
         return run(p, Options(spp=spp, seed=5)).result
     finally:
         p.renderer.release()
@@ -87,10 +91,48 @@ def test_strips_of_a_compute_dispatch_change_no_bit(folder, monkeypatch):  # noq
 
 
 def test_the_fragment_dispatch_compiles_none_of_it():
-    assert Features.of(bounces=2).defines()["MCPT_COMPUTE"] == 0
-    assert compute_dispatch({}) is False and compute_dispatch({"MCPT_DISPATCH": " Compute "}) is True
-    with pytest.raises(DispatchError, match="MCPT_DISPATCH='vulkan': choose one of fragment, compute"):
-        compute_dispatch({"MCPT_DISPATCH": "vulkan"})
+    d = Features.of(bounces=2).defines()
+    assert d["MCPT_COMPUTE"] == 0 and d["MCPT_WAVE"] == 0
+    assert dispatch_flags({}) == {"compute": False, "wavefront": False}
+    assert dispatch_flags({"MCPT_DISPATCH": " Compute "}) == {"compute": True, "wavefront": False}
+    assert dispatch_flags({"MCPT_DISPATCH": "wavefront"}) == {"compute": True, "wavefront": True}
+    with pytest.raises(DispatchError, match="MCPT_DISPATCH='vulkan': choose one of fragment, compute, wavefront"):
+        dispatch_flags({"MCPT_DISPATCH": "vulkan"})
+
+
+@pytest.mark.parametrize("scene, kw", [
+    (CORNELL, dict(resolution=(72, 40), spp=70)),  # two draws, two read-backs; no BVH
+    (ROOT / "scenes" / "bunny-metal.yaml", dict(resolution=(48, 32), spp=6)),  # BVH, rays queued in 2 classes
+    (ROOT / "scenes" / "fog.yaml", dict(resolution=(40, 24), spp=4)),  # a medium: NEE in the shade kernel
+    (CORNELL, dict(resolution=(40, 24), spp=3, sampler="independent", aovs=("variance",))),
+])
+def test_wavefront_and_fragment_dispatch_give_the_same_bits(monkeypatch, scene, kw):
+    spp = kw.pop("spp")
+    frag = _render(monkeypatch, "fragment", scene, spp, **kw)
+    wave = _render(monkeypatch, "wavefront", scene, spp, **kw)
+    assert frag.image.mean() > 0.001
+    _same_result(frag, wave)
+
+
+def test_wavefront_follows_long_paths_without_continuation(monkeypatch):
+    """The albedo-0.999 furnace at 400 bounces: the fragment path stores and continues its paths
+    across draws (adding each sample in pieces); the wavefront runs one bounce a kernel and needs
+    none, so its sums round differently but hold the same samples."""
+    kw = dict(resolution=(24, 16), bounces=400, overrides=("materials.furnace.albedo=[0.999,0.999,0.999]",))
+    frag = _render(monkeypatch, "fragment", FURNACE, 2, **kw)
+    wave = _render(monkeypatch, "wavefront", FURNACE, 2, **kw)
+    assert frag.setup["continuation_draws"] > 0 and "continuation_draws" not in wave.setup
+    assert wave.dropped_samples == frag.dropped_samples
+    np.testing.assert_allclose(wave.image, frag.image, rtol=1e-5)
+
+
+@pytest.mark.parametrize("args, what", [(("--aov", "albedo"), "the albedo, normal and depth AOVs"),
+                                        (("-D", "render.transparent=true"), "a transparent film")])
+def test_wavefront_refuses_what_it_cannot_render_in_one_line(folder, monkeypatch, args, what):  # noqa: F811
+    monkeypatch.setenv("MCPT_DISPATCH", "wavefront")
+    r = invoke("scene.yaml", "--spp", "1", *args, "-o", "x.exr")
+    assert r.exit_code == 2 and f"MCPT_DISPATCH=wavefront cannot render {what}" in r.output
+    assert len(r.output.strip().splitlines()) == 1 and not (folder / "x.exr").exists()
 
 
 def test_an_unknown_dispatch_is_one_line_and_exit_2(folder, monkeypatch):  # noqa: F811

@@ -1,6 +1,6 @@
 #!/bin/bash
 # Issue #23 on a lent GPU machine (prepared by bench/device/prepare.sh; carry .gl .whl .xshared):
-# GL on the GPU, mcpt (fragment and compute dispatch) beside Mitsuba cuda_ad_rgb at 1024x1024,
+# GL on the GPU, mcpt (fragment, compute and wavefront dispatch) beside Mitsuba cuda_ad_rgb at 1024x1024,
 # throughput, then the suite in parallel and its failures again in one process (16 processes
 # sharing one H200 lost draws during long draws: bench/RESULTS.md). Files land in $OUT.
 # PEER_S, SUITE_S, TP_S: seconds each step may take (the device tool allows 600 a call).
@@ -21,13 +21,13 @@ export MCPT_SHARED=$PWD/.xshared MCPT_PEER_PYTHON=/tmp/peerpy OUT=${OUT:-/tmp/ou
 mkdir -p "$OUT"
 python3 -c "import moderngl; c = moderngl.create_standalone_context(backend='egl', require=430); print(c.info['GL_RENDERER'])"
 el set-up done
-timeout "${PEER_S:-200}" python3 -m mcpt.bench.gpu_peer -o /tmp/gp 2>&1 | tee "$OUT/peer.log" | grep -v "^round"
+timeout "${PEER_S:-260}" python3 -m mcpt.bench.gpu_peer -o /tmp/gp 2>&1 | tee "$OUT/peer.log" | grep -v "^round"
 cp /tmp/gp/peer.json /tmp/gp/PEER.md "$OUT/" 2>/dev/null
 el peer done
 timeout "${TP_S:-90}" python3 -m mcpt.bench.run --only throughput -o /tmp/tp > "$OUT/throughput.log" 2>&1
 grep -E "Mpaths/s" "$OUT/throughput.log"
 el throughput done
-timeout "${SUITE_S:-240}" python3 -m pytest -q -n 8 --dist loadfile -p no:benchmark > "$OUT/suite.log" 2>&1
+timeout "${SUITE_S:-200}" python3 -m pytest -q -n 8 --dist loadfile -p no:benchmark > "$OUT/suite.log" 2>&1
 tail -1 "$OUT/suite.log"
 timeout 120 python3 -m pytest -q --lf -p no:xdist -p no:benchmark > "$OUT/suite-failed-alone.log" 2>&1
 tail -1 "$OUT/suite-failed-alone.log"

@@ -127,6 +127,7 @@ class Features:
     aov = property(lambda self: self.options.aov)
     loop_limit = property(lambda self: self.limits.loop_limit)
     compute = property(lambda self: self.switches.compute)
+    wavefront = property(lambda self: self.switches.wavefront)
     bvh = property(lambda self: self.compiled.bvh)
     bvh_dense = property(lambda self: self.compiled.bvh_dense)
     textures = property(lambda self: self.compiled.textures)
@@ -155,7 +156,7 @@ class Features:
     def continues(self) -> bool:
         """Paths are split across draws (glsl/path_state.glsl): only where loops are capped and a
         path can outrun a draw's share (or the uber-shader's BVH loop may), unless switched off."""
-        return (self.switches.continuation and self.limits.loop_limit > 0
+        return (self.switches.continuation and self.limits.loop_limit > 0 and not self.switches.wavefront
                 and (self.limits.long_paths or self.switches.uber))
 
     @property
@@ -241,6 +242,7 @@ class Features:
             "MCPT_COUNTERS": b(self.switches.counters),
             "MCPT_CONTINUE": b(self.continues),
             "MCPT_COMPUTE": b(self.switches.compute),
+            "MCPT_WAVE": b(self.switches.wavefront),
         }
 
     def preamble(self) -> str:
@@ -265,7 +267,8 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
            bvh: bool | None = None, clamp: bool = False, variance: bool = False, aov: bool = False, alpha: bool = False,
            loop_limit: int = 0, counters: bool = False, bvh_dense: bool = False,
            sampler: str = "sobol", continuation: bool = True, lights: dict | None = None,
-           medium: bool = False, interior_media: bool = False, compute: bool = False) -> Features:
+           medium: bool = False, interior_media: bool = False, compute: bool = False,
+           wavefront: bool = False) -> Features:
     """Features of a scene from its counts; the one place these decisions are made.
 
     ``sampling``, ``russian_roulette``, ``counters``, ``continuation``: :class:`Switches`;
@@ -293,7 +296,7 @@ def derive(*, bounces: int, n_triangles: int, n_emissive: int, material_types: s
         loop_limit=loop_limit, long_paths=needs_continuation(loop_limit, bounces, n_triangles,
                                                              traced=not tri_const, n_lights=n_emissive),
         sampling=sampling, russian_roulette=russian_roulette, counters=counters, continuation=continuation,
-        compute=compute)
+        compute=compute or wavefront, wavefront=wavefront)
 
 
 def for_world(world, *, bounces: int | None = None, **flags) -> Features:

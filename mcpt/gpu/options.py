@@ -58,6 +58,7 @@ class Switches:
     uber: bool = False              # compile every optional code path (Features.everything)
     equiangular: bool = True        # issue #25: equiangular samples towards point/spot lights in a medium
     compute: bool = False           # issue #23: dispatch the path tracer as a compute shader (MCPT_DISPATCH)
+    wavefront: bool = False         # ... as two compute kernels with queues between them (needs compute)
 
     def __post_init__(self):
         if self.sampling not in SAMPLING_MODES:
@@ -65,18 +66,20 @@ class Switches:
 
 
 #: How the path tracer runs (``MCPT_DISPATCH``): "fragment" (default: a full-screen draw, measured
-#: on llvmpipe and on NVIDIA H100/H200) or "compute" (issue #23: the same GLSL as a compute
-#: shader, for GPUs that run fragment work on a few of their units, such as Hopper's).
-DISPATCHES = ("fragment", "compute")
+#: on llvmpipe and on NVIDIA H100/H200), "compute" (issue #23: the same GLSL as a compute shader,
+#: for GPUs that run fragment work on a few of their units, such as Hopper's) or "wavefront"
+#: (issue #23: two compute kernels, shade and trace, with each bounce's rays regrouped between
+#: them; mcpt/gpu/wavefront.py).
+DISPATCHES = ("fragment", "compute", "wavefront")
 
 
 class DispatchError(McptError, ValueError):
-    """MCPT_DISPATCH names no dispatch; one line for the user."""
+    """MCPT_DISPATCH names no dispatch, or one that cannot render the scene; one line for the user."""
 
 
-def compute_dispatch(environ=os.environ) -> bool:
-    """Whether ``MCPT_DISPATCH`` asks for the compute dispatch (Switches.compute)."""
+def dispatch_flags(environ=os.environ) -> dict[str, bool]:
+    """The Switches ``MCPT_DISPATCH`` asks for: ``compute`` (compute and wavefront) and ``wavefront``."""
     value = (environ.get("MCPT_DISPATCH") or "fragment").strip().lower()
     if value not in DISPATCHES:
         raise DispatchError(f"MCPT_DISPATCH={value!r}: choose one of {', '.join(DISPATCHES)}")
-    return value == "compute"
+    return {"compute": value != "fragment", "wavefront": value == "wavefront"}

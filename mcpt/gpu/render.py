@@ -33,7 +33,7 @@ from ..errors import McptError
 from ..shading.sampler import RandomNumbers
 from ..shading.sobol import seed32
 from . import aov as aov_mod
-from . import shader
+from . import shader, wavefront
 from .bands import BAND_PATHS, BAND_SECONDS, padded, part_geometry, plan_bands, plan_strips
 from .context import GLContext
 from .features import Features, samples_per_draw
@@ -135,7 +135,11 @@ class Renderer:
         self.aov_target = 1 + int(features.variance) if features.aov else None
         check_host_memory(self.width, self.height, n_targets)
         t0 = time.perf_counter()
-        if features.compute:  # issue #23: the same GLSL as a compute shader (glsl/pathtrace.frag)
+        self.wave = None
+        if features.wavefront:  # issue #23: two kernels and queues between them (wavefront.py)
+            kernels = wavefront.programs(ctx, features)
+            self.program, self.wave = kernels[0], wavefront.Wavefront(ctx, kernels, self.width, self.height)
+        elif features.compute:  # issue #23: the same GLSL as a compute shader (glsl/pathtrace.frag)
             self.program = shader.compute_program(ctx, "pathtrace.frag", features.preamble(), features.key)
         else:
             self.program = shader.program(ctx, "fullscreen.vert", "pathtrace.frag", features.preamble(),
@@ -188,8 +192,9 @@ class Renderer:
         }
 
     def _uniform(self, name, value):
-        if name in self.program:  # the specialised program may have compiled a uniform away
-            self.program[name].value = value
+        for program in (self.program,) if self.wave is None else (self.wave.shade, self.wave.trace):
+            if name in program:  # the specialised program may have compiled a uniform away
+                program[name].value = value
 
     def passes(self, seed: int, start: int, stop: int, *, chunk: int = 64, carry=None,
                interrupt=None, drop_draw=None, tiles=None):
@@ -230,9 +235,7 @@ class Renderer:
         if self.features.compute:  # the targets are images after the path state's
             for i, target in enumerate(self.targets):
                 target.bind_to_image(STATE_IMAGES + i, read=True, write=True)
-        if self.paths is not None:
-            self.paths.bind()
-            self._uniform("u_continue", 0)
+        self._bind_state()
         self.random_seconds = 0.0
         spd = self.samples_per_draw
         self._draws = 0
@@ -271,6 +274,14 @@ class Renderer:
             ctx.viewport = (0, 0, self.width, self.height)
             self._uniform("u_parts", (0, 1, 0, 1))
             ctx.disable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
+
+    def _bind_state(self) -> None:
+        """The images and buffers of continued paths or of the wavefront's kernels."""
+        if self.wave is not None:
+            self.wave.bind()
+        if self.paths is not None:
+            self.paths.bind()
+            self._uniform("u_continue", 0)
 
     def _band_paths(self) -> int:
         """Paths a band holds: ``band_paths``, or as many as BAND_SECONDS takes at the speed of
@@ -325,6 +336,8 @@ class Renderer:
         ctx = self.gl.ctx
         bx, by, bw, bh = band[:4]
         y = self.height - by - bh  # GL rows count from the bottom; tiles and bands from the top
+        if self.wave is not None:
+            return lambda: self.wave.draw(self._uniform, (bx, y, bw, bh))
         if self.features.compute:
             # One invocation a pixel of the rectangle; the barrier makes its image adds visible to
             # the next dispatch's loads and to the read-back.
@@ -393,6 +406,8 @@ class Renderer:
         if self.vao is not None:
             self.vao.release()
         self.fbo.release()
+        if self.wave is not None:
+            self.wave.release()
         if self.paths is not None:
             self.paths.release()
         for t in self.targets:

@@ -1,0 +1,129 @@
+// The wavefront dispatch (issue #23, the dispatch named `wavefront`; host side: mcpt/gpu/wavefront.py):
+// the path tracer of glsl/pathtrace.frag cut at its closest-hit query into two compute kernels
+// over the pixels ("slots") of a rectangle, u_dispatch (x0, y0 in GL rows from the bottom, width,
+// height), run in turn until no path is left (Laine, Karras & Aila 2013, "Megakernels considered
+// harmful: wavefront path tracing on GPUs"):
+//   WAVE_KERNEL 0, shade: a slot's hit -> path_hit (emission, NEE with its shadow ray, the BSDF
+//     sample, roulette); an ended sample is tallied and the slot's next one starts; the next ray
+//     is queued. With u_wave_start the slots' first camera rays are made and queued.
+//   WAVE_KERNEL 1, trace: the closest hit of each queued ray.
+// Between them a path's state waits in images 0-3 (at its pixel), its hit and its tally in
+// storage buffers. Rays are queued in two classes, those that enter the box of the BVH root's
+// first child (the dense mesh, when the large triangles are written out: bvh.py large_tail) and
+// the rest, so that a SIMD batch of the trace kernel holds rays of like length (bench/ray_order.py:
+// 0.66x the traversal time of pixel order on the 100k sphere). A ray's hit does not depend on
+// which invocation traces it, and each slot adds its samples in order: the same float32 adds as
+// the fragment path's main(), so the same pixels (tests/test_dispatch.py).
+layout(local_size_x = 64) in;
+#ifndef WAVE_KERNEL
+#define WAVE_KERNEL 0
+#endif
+const uint WAVE_NONE = 0xffffffffu;
+
+layout(binding = 0, rgba32f) uniform image2D u_wave0;  // ray.o, k (0: the slot's samples are done)
+layout(binding = 1, rgba32f) uniform image2D u_wave1;  // ray.d, pdf_bsdf_prev
+layout(binding = 2, rgba32f) uniform image2D u_wave2;  // beta, eta_scale
+layout(binding = 3, rgba32f) uniform image2D u_wave3;  // L, 4 * sample j of the draw + delta_prev
+layout(std430, binding = 2) buffer WaveHits { uvec4 wave_hit[]; };  // t, tri + 1 (0: no hit), bary
+layout(std430, binding = 3) buffer WaveTally { vec4 wave_tally[]; };  // 2 a slot: sum, dropped; squares
+// Queues: the counts, then the long class from entry 0 and the short one from entry `slots`.
+layout(std430, binding = 4) buffer WaveIn { uint in_long, in_short, in_pad0, in_pad1; uint in_slot[]; };
+layout(std430, binding = 5) buffer WaveOut { uint out_long, out_short, out_pad0, out_pad1; uint out_slot[]; };
+uniform int u_wave_start;  // 1: the draw's first shade, which starts every slot's first sample
+
+uint wave_slots() { return uint(u_dispatch.z * u_dispatch.w); }
+ivec2 wave_frag(uint p) { return u_dispatch.xy + ivec2(int(p) % u_dispatch.z, int(p) / u_dispatch.z); }
+
+// Entry i of the input queue: the long class, then the short one; WAVE_NONE past both.
+uint wave_queued(uint i) {
+    if (i < in_long) return in_slot[i];
+    i -= in_long;
+    return i < in_short ? in_slot[wave_slots() + i] : WAVE_NONE;
+}
+
+void wave_enqueue(uint p, Ray r) {
+    bool deep = true;
+#if MCPT_BVH
+    uvec4 lo = texelFetch(u_nodes, 0), hi = texelFetch(u_nodes, 1);  // the root's first child's box
+    float tn;
+    deep = box_hit(uintBitsToFloat(lo.xyz), uintBitsToFloat(hi.xyz), r.o, safe_inv(r.d), INF, tn);
+#endif
+    if (deep) out_slot[atomicAdd(out_long, 1u)] = p;
+    else out_slot[wave_slots() + atomicAdd(out_short, 1u)] = p;
+}
+
+void wave_store(ivec2 at, Path P, int j) {
+    imageStore(u_wave0, at, vec4(P.ray.o, float(P.k)));
+    imageStore(u_wave1, at, vec4(P.ray.d, P.pdf_bsdf_prev));
+    imageStore(u_wave2, at, vec4(P.beta, P.eta_scale));
+    imageStore(u_wave3, at, vec4(P.L, float(4 * j + (P.delta_prev ? 1 : 0))));
+}
+
+Path wave_load(ivec2 at, out int j) {
+    vec4 s0 = imageLoad(u_wave0, at), s1 = imageLoad(u_wave1, at);
+    vec4 s2 = imageLoad(u_wave2, at), s3 = imageLoad(u_wave3, at);
+    int w = int(s3.w);
+    j = w >> 2;
+    return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, (w & 1) != 0, s2.w, false);
+}
+
+void wave_shade() {
+    uint p = u_wave_start != 0 ? gl_GlobalInvocationID.x : wave_queued(gl_GlobalInvocationID.x);
+    if (p >= wave_slots()) return;
+    ivec2 frag = wave_frag(p);
+    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
+    ivec2 local = pixel - u_tile.xy;
+    int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
+    Path P;
+    int j = 0;
+    vec4 sum = vec4(0.0), squares = vec4(0.0);  // main()'s Tally: sum, dropped; sum2
+    if (u_wave_start != 0) {
+        P = sample_start(pixel, pix, tile_pix, 0);
+    } else {
+        P = wave_load(frag, j);
+        sum = wave_tally[2u * p];
+        squares = wave_tally[2u * p + 1u];
+        sampler_init(pix, tile_pix, j);
+        uvec4 x = wave_hit[p];
+        Hit h = Hit(uintBitsToFloat(x.x), x.y != 0u ? int(x.y) - 1 : -1, uintBitsToFloat(x.zw));
+        if (!path_hit(P, P.ray, x.y != 0u, h)) {
+            vec3 v = sample_value(P.L);  // tally_sample: a non-finite sample is dropped, counted
+            if (non_finite(v)) {
+                sum.a += 1.0;
+            } else {
+                sum.rgb += v;
+                squares.rgb += v * v;
+            }
+            if (++j >= u_samples) {  // the slot's samples are done: its tally goes to the targets
+                o_color = sum;
+#if MCPT_VARIANCE
+                o_square = squares;
+#endif
+                targets_add(frag);
+                return;
+            }
+            P = sample_start(pixel, pix, tile_pix, j);
+        }
+    }
+    wave_store(frag, P, j);
+    wave_tally[2u * p] = sum;
+    wave_tally[2u * p + 1u] = squares;
+    wave_enqueue(p, P.ray);
+}
+
+void wave_trace() {
+    uint p = wave_queued(gl_GlobalInvocationID.x);
+    if (p == WAVE_NONE) return;
+    ivec2 at = wave_frag(p);
+    Hit h;
+    bool found = trace_closest(Ray(imageLoad(u_wave0, at).xyz, imageLoad(u_wave1, at).xyz), h);
+    wave_hit[p] = uvec4(floatBitsToUint(h.t), found ? uint(h.tri + 1) : 0u, floatBitsToUint(h.bary));
+}
+
+void main() {
+#if WAVE_KERNEL == 0
+    wave_shade();
+#else
+    wave_trace();
+#endif
+}
