@@ -32,6 +32,9 @@ layout(std430, binding = 5) buffer WaveOut { uint out_long, out_short, out_pad0,
 uniform int u_wave_start;  // 1: the draw's first shade, which starts every slot's first sample
 
 uint wave_slots() { return uint(u_dispatch.z * u_dispatch.w); }
+// The invocation's index: the host lays more than a row's worth of groups out in rows
+// (mcpt/gpu/wavefront.py: GL guarantees only 65535 work groups along an axis).
+uint wave_index() { return gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x + gl_GlobalInvocationID.x; }
 ivec2 wave_frag(uint p) { return u_dispatch.xy + ivec2(int(p) % u_dispatch.z, int(p) / u_dispatch.z); }
 
 // Entry i of the input queue: the long class, then the short one; WAVE_NONE past both.
@@ -68,7 +71,7 @@ Path wave_load(ivec2 at, out int j) {
 }
 
 void wave_shade() {
-    uint p = u_wave_start != 0 ? gl_GlobalInvocationID.x : wave_queued(gl_GlobalInvocationID.x);
+    uint p = u_wave_start != 0 ? wave_index() : wave_queued(wave_index());
     if (p >= wave_slots()) return;
     ivec2 frag = wave_frag(p);
     ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
@@ -112,7 +115,7 @@ void wave_shade() {
 }
 
 void wave_trace() {
-    uint p = wave_queued(gl_GlobalInvocationID.x);
+    uint p = wave_queued(wave_index());
     if (p == WAVE_NONE) return;
     ivec2 at = wave_frag(p);
     Hit h;

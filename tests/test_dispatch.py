@@ -114,6 +114,16 @@ def test_wavefront_and_fragment_dispatch_give_the_same_bits(monkeypatch, scene, 
     _same_result(frag, wave)
 
 
+def test_wavefront_lays_many_groups_out_in_rows(monkeypatch):
+    """More work groups than a row holds (GL guarantees 65535 an axis; 4096x4096 pixels need
+    262144 of 64): rows of 3 groups here, the same bits."""
+    from mcpt.gpu import wavefront
+
+    frag = _render(monkeypatch, "fragment", CORNELL, 3, resolution=(40, 24))
+    monkeypatch.setattr(wavefront, "ROW_GROUPS", 3)
+    _same_result(frag, _render(monkeypatch, "wavefront", CORNELL, 3, resolution=(40, 24)))
+
+
 def test_wavefront_follows_long_paths_without_continuation(monkeypatch):
     """The albedo-0.999 furnace at 400 bounces: the fragment path stores and continues its paths
     across draws (adding each sample in pieces); the wavefront runs one bounce a kernel and needs

@@ -24,8 +24,10 @@ import moderngl
 from . import shader
 from .path_state import STATE_IMAGES
 
-#: glsl/wavefront.glsl's work group (1-D) and its storage-buffer bindings.
+#: glsl/wavefront.glsl's work group (1-D) and its storage-buffer bindings; more groups than
+#: ROW_GROUPS are laid out in rows (GL guarantees 65535 a dimension; 4096x4096 slots need 262144).
 GROUP = 64
+ROW_GROUPS = 32768
 HITS, TALLY, QUEUE_IN, QUEUE_OUT = 2, 3, 4, 5
 _ZERO_COUNTS = bytes(16)
 
@@ -87,7 +89,8 @@ class Wavefront:
         if free is not None:
             free.write(_ZERO_COUNTS)
             free.bind_to_storage_buffer(QUEUE_OUT)
-        kernel.run(-(-invocations // GROUP))
+        groups = -(-invocations // GROUP)
+        kernel.run(min(groups, ROW_GROUPS), -(-groups // ROW_GROUPS))
         self.ctx.memory_barrier()
 
     def release(self) -> None:
