@@ -132,6 +132,7 @@ def test_wavefront_follows_long_paths_without_continuation(monkeypatch):
     frag = _render(monkeypatch, "fragment", FURNACE, 2, **kw)
     wave = _render(monkeypatch, "wavefront", FURNACE, 2, **kw)
     assert frag.setup["continuation_draws"] > 0 and "continuation_draws" not in wave.setup
+    assert wave.setup["wavefront_steps"] >= 400  # a kernel pair a bounce
     assert wave.dropped_samples == frag.dropped_samples
     np.testing.assert_allclose(wave.image, frag.image, rtol=1e-5)
 

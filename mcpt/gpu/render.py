@@ -372,6 +372,8 @@ class Renderer:
         setup = dict(self.setup)
         if self.paths is not None:
             setup["continuation_draws"] = self.paths.draws
+        if self.wave is not None:
+            setup["wavefront_steps"] = self.wave.steps  # trace + shade pairs run
         # Transparent film (MCPT_ALPHA): the squares target's alpha counts covering samples.
         alpha = (total[1, ..., 3] / n[..., 0]).astype(np.float32) if self.features.options.alpha else None
         return RenderResult(image.astype(np.float32), variance, spp, seed, self.features.bounces,
