@@ -20,7 +20,6 @@ time, llvmpipe's threads included), then the counters build of each gives its la
 from __future__ import annotations
 
 import argparse
-import resource
 import shutil
 import tempfile
 from pathlib import Path
@@ -31,6 +30,7 @@ from mcpt.api import Options, prepare, run
 from mcpt.gpu import shader
 
 from .ab import scene_path
+from .common import alternate
 from .counters import measure
 
 #: The one line B changes in glsl/sobol.glsl, and what it becomes (fragment dispatch only: the
@@ -63,35 +63,27 @@ def _use(folder: Path | None) -> None:
     shader.clear_cache()
 
 
-def _cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
-
-
 def compare(scene: Path, shaders: dict[str, Path | None], *, spp: int, rounds: int, resolution) -> dict:
     """Side by side: paths per CPU second, image mean and lane utilization of each side (a glsl
     folder, None for the shipped one), and the ratio B/A."""
     prepared = {}
     for side, folder in shaders.items():
-        _use(folder)
+        _use(folder)  # programs compile in prepare: the rounds below render what each side built
         prepared[side] = prepare(scene, resolution=resolution, cache=False)
         run(prepared[side], Options(spp=1, seed=0))  # compile and warm up
-    cpu = dict.fromkeys(shaders, 0.0)
-    means = {side: [] for side in shaders}
-    for k in range(rounds):
-        for side in (list(shaders) if k % 2 == 0 else list(shaders)[::-1]):
-            c0 = _cpu()
-            image = run(prepared[side], Options(spp=spp, seed=k)).result.image
-            cpu[side] += _cpu() - c0
-            means[side].append(float(np.mean(image[..., :3])))
-    for p in prepared.values():
-        p.renderer.release()
+    try:
+        cpu, _, images = alternate(list(shaders), lambda side, k: run(
+            prepared[side], Options(spp=spp, seed=k)).result.image, rounds)
+    finally:
+        for p in prepared.values():
+            p.renderer.release()
+    means = {side: float(np.mean([r[side][..., :3].mean() for r in images])) for side in shaders}
     paths = rounds * spp * resolution[0] * resolution[1]
     out = {"scene": scene.stem}
     for side, folder in shaders.items():
         _use(folder)
         m = measure(scene, spp=2, resolution=resolution)
-        out[side] = {"paths_per_cpu_s": paths / cpu[side], "image_mean": float(np.mean(means[side])),
+        out[side] = {"paths_per_cpu_s": paths / cpu[side], "image_mean": means[side],
                      "lane_utilization": m["lane_utilization"],
                      "batch_iterations_per_ray": m["batch_iterations_per_ray"]}
     out["ratio_B_over_A"] = out["B"]["paths_per_cpu_s"] / out["A"]["paths_per_cpu_s"]

@@ -18,6 +18,7 @@ import os
 import platform
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -192,6 +193,22 @@ def converges(values) -> dict:
 # ------------------------------------------------------------------------------------------------
 # Records
 # ------------------------------------------------------------------------------------------------
+
+
+def alternate(sides: list, render, rounds: int):
+    """``render(side, round)`` for every side in every round, the order reversed every other
+    round (a side never always goes first on a noisy machine). Returns CPU seconds (the process's:
+    llvmpipe's threads included) and wall seconds per side, and each round's results by side."""
+    cpu, wall, results = dict.fromkeys(sides, 0.0), dict.fromkeys(sides, 0.0), []
+    for k in range(rounds):
+        got = {}
+        for side in (sides if k % 2 == 0 else sides[::-1]):
+            c0, w0 = time.process_time(), time.perf_counter()
+            got[side] = render(side, k)
+            cpu[side] += time.process_time() - c0
+            wall[side] += time.perf_counter() - w0
+        results.append(got)
+    return cpu, wall, results
 
 
 def git_revision(root: Path = ROOT) -> dict:

@@ -11,9 +11,7 @@ wall clock on a shared machine) and per wall second, each dispatch over the firs
 from __future__ import annotations
 
 import argparse
-import resource
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -22,11 +20,7 @@ from mcpt.api import Options, prepare, run
 from mcpt.gpu.options import DISPATCHES, dispatch_flags
 
 from .ab import scene_path
-
-
-def _cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
+from .common import alternate
 
 
 def compare(scene: Path, modes, *, spp: int, rounds: int, resolution) -> dict:
@@ -36,18 +30,12 @@ def compare(scene: Path, modes, *, spp: int, rounds: int, resolution) -> dict:
     try:
         for p in prepared.values():
             run(p, Options(spp=1, seed=0))  # compile and warm up
-        cpu, wall, same = dict.fromkeys(modes, 0.0), dict.fromkeys(modes, 0.0), True
-        for k in range(rounds):
-            images = {}
-            for m in (modes if k % 2 == 0 else modes[::-1]):
-                c0, w0 = _cpu(), time.perf_counter()
-                images[m] = run(prepared[m], Options(spp=spp, seed=k)).result.image
-                cpu[m] += _cpu() - c0
-                wall[m] += time.perf_counter() - w0
-            same &= all(np.array_equal(images[modes[0]].view(np.uint32), images[m].view(np.uint32)) for m in modes)
+        cpu, wall, images = alternate(list(modes), lambda m, k: run(
+            prepared[m], Options(spp=spp, seed=k)).result.image, rounds)
     finally:
         for p in prepared.values():
             p.renderer.release()
+    same = all(np.array_equal(r[modes[0]].view(np.uint32), r[m].view(np.uint32)) for r in images for m in modes)
     return {"cpu_s": cpu, "wall_s": wall, "same_bits": same,
             "paths": rounds * spp * resolution[0] * resolution[1]}
 

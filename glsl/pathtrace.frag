@@ -231,6 +231,23 @@ void tally_sample(inout Tally T, vec3 v) {
     }
 }
 
+// What a pixel's tally adds to the accumulation targets (the AOVs are main()'s own).
+void tally_out(Tally T) {
+    o_color = vec4(T.sum, T.dropped);
+#if MCPT_VARIANCE
+    o_square = vec4(T.sum2, T.cover);
+#endif
+}
+
+// The pixel at GL position frag (row 0 at the top), its index in the image and in the tile.
+ivec2 frag_pixel(ivec2 frag, out int pix, out int tile_pix) {
+    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);
+    ivec2 local = pixel - u_tile.xy;
+    pix = pixel.y * u_resolution.x + pixel.x;
+    tile_pix = local.y * u_tile.z + local.x;
+    return pixel;
+}
+
 // Sample j of the draw at this pixel: its random numbers and camera ray.
 Path sample_start(ivec2 pixel, int pix, int tile_pix, int j) {
     sampler_init(pix, tile_pix, j);
@@ -257,9 +274,8 @@ void main() {
     ivec2 frag = ivec2(gl_FragCoord.xy);
 #define DISCARD discard
 #endif
-    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
-    ivec2 local = pixel - u_tile.xy;
-    int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
+    int pix, tile_pix;
+    ivec2 pixel = frag_pixel(frag, pix, tile_pix);
     Path P;
     int j = 0;
 #if MCPT_CONTINUE
@@ -308,10 +324,7 @@ void main() {
     if (unfinished) path_store(frag, P, j);
     else if (u_continue != 0) path_clear(frag);
 #endif
-    o_color = vec4(T.sum, T.dropped);
-#if MCPT_VARIANCE
-    o_square = vec4(T.sum2, T.cover);
-#endif
+    tally_out(T);
 #if MCPT_AOV
     o_aov_a = g_aov_a;
     o_aov_b = g_aov_b;

@@ -11,7 +11,7 @@
 // storage buffers. Rays are queued in two classes, those that enter the box of the BVH root's
 // first child (the dense mesh, when the large triangles are written out: bvh.py large_tail) and
 // the rest, so that a SIMD batch of the trace kernel holds rays of like length (bench/ray_order.py:
-// 0.66x the traversal time of pixel order on the 100k sphere). A ray's hit does not depend on
+// 0.62x the traversal time of pixel order on the 100k sphere). A ray's hit does not depend on
 // which invocation traces it, and each slot adds its samples in order: the same float32 adds as
 // the fragment path's main(), so the same pixels (tests/test_dispatch.py).
 layout(local_size_x = 64) in;
@@ -25,7 +25,7 @@ layout(binding = 1, rgba32f) uniform image2D u_wave1;  // ray.d, pdf_bsdf_prev
 layout(binding = 2, rgba32f) uniform image2D u_wave2;  // beta, eta_scale
 layout(binding = 3, rgba32f) uniform image2D u_wave3;  // L, 4 * sample j of the draw + delta_prev
 layout(std430, binding = 2) buffer WaveHits { uvec4 wave_hit[]; };  // t, tri + 1 (0: no hit), bary
-layout(std430, binding = 3) buffer WaveTally { vec4 wave_tally[]; };  // 2 a slot: sum, dropped; squares
+layout(std430, binding = 3) buffer WaveTally { vec4 wave_tally[]; };  // 2 a slot: sum, dropped; sum2, cover
 // Queues: the counts, then the long class from entry 0 and the short one from entry `slots`.
 layout(std430, binding = 4) buffer WaveIn { uint in_long, in_short, in_pad0, in_pad1; uint in_slot[]; };
 layout(std430, binding = 5) buffer WaveOut { uint out_long, out_short, out_pad0, out_pad1; uint out_slot[]; };
@@ -74,34 +74,24 @@ void wave_shade() {
     uint p = u_wave_start != 0 ? wave_index() : wave_queued(wave_index());
     if (p >= wave_slots()) return;
     ivec2 frag = wave_frag(p);
-    ivec2 pixel = ivec2(frag.x, u_resolution.y - 1 - frag.y);  // row 0 at the top
-    ivec2 local = pixel - u_tile.xy;
-    int pix = pixel.y * u_resolution.x + pixel.x, tile_pix = local.y * u_tile.z + local.x;
+    int pix, tile_pix;
+    ivec2 pixel = frag_pixel(frag, pix, tile_pix);
     Path P;
     int j = 0;
-    vec4 sum = vec4(0.0), squares = vec4(0.0);  // main()'s Tally: sum, dropped; sum2
+    Tally T = tally_start(vec3(0.0));  // main()'s, kept between kernels: a sample starts at 0
     if (u_wave_start != 0) {
         P = sample_start(pixel, pix, tile_pix, 0);
     } else {
         P = wave_load(frag, j);
-        sum = wave_tally[2u * p];
-        squares = wave_tally[2u * p + 1u];
+        vec4 a = wave_tally[2u * p], b = wave_tally[2u * p + 1u];
+        T.sum = a.rgb; T.dropped = a.a; T.sum2 = b.rgb; T.cover = b.a;
         sampler_init(pix, tile_pix, j);
         uvec4 x = wave_hit[p];
         Hit h = Hit(uintBitsToFloat(x.x), x.y != 0u ? int(x.y) - 1 : -1, uintBitsToFloat(x.zw));
         if (!path_hit(P, P.ray, x.y != 0u, h)) {
-            vec3 v = sample_value(P.L);  // tally_sample: a non-finite sample is dropped, counted
-            if (non_finite(v)) {
-                sum.a += 1.0;
-            } else {
-                sum.rgb += v;
-                squares.rgb += v * v;
-            }
+            tally_sample(T, sample_value(P.L));
             if (++j >= u_samples) {  // the slot's samples are done: its tally goes to the targets
-                o_color = sum;
-#if MCPT_VARIANCE
-                o_square = squares;
-#endif
+                tally_out(T);
                 targets_add(frag);
                 return;
             }
@@ -109,8 +99,8 @@ void wave_shade() {
         }
     }
     wave_store(frag, P, j);
-    wave_tally[2u * p] = sum;
-    wave_tally[2u * p + 1u] = squares;
+    wave_tally[2u * p] = vec4(T.sum, T.dropped);
+    wave_tally[2u * p + 1u] = vec4(T.sum2, T.cover);
     wave_enqueue(p, P.ray);
 }
 

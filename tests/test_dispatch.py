@@ -121,7 +121,10 @@ def test_wavefront_lays_many_groups_out_in_rows(monkeypatch):
 
     frag = _render(monkeypatch, "fragment", CORNELL, 3, resolution=(40, 24))
     monkeypatch.setattr(wavefront, "ROW_GROUPS", 3)
-    _same_result(frag, _render(monkeypatch, "wavefront", CORNELL, 3, resolution=(40, 24)))
+    assert -(-40 * 24 // wavefront.GROUP) > 3 * wavefront.ROW_GROUPS  # the first shade: 5 rows
+    wave = _render(monkeypatch, "wavefront", CORNELL, 3, resolution=(40, 24))
+    assert frag.image.mean() > 0.01 and same_bits(frag.image, wave.image)
+    _same_result(frag, wave)
 
 
 def test_wavefront_follows_long_paths_without_continuation(monkeypatch):
