@@ -34,7 +34,8 @@ Samplers (``--sampler``, features.SAMPLERS):
 ``sobol`` (default) padded, Owen-scrambled Sobol' computed in the shader from hashes of (seed,
 pixel, dim) and the sample index (mcpt/shading/sobol.py, glsl/sobol.glsl): no upload, no host work per
 pass, and 2D pairs stratified across samples (faster convergence: relMSE x0.59 at equal spp on
-the Cornell box, bench/samplers.py). A draw may take several samples (path regeneration).
+the Cornell box, bench/samplers.py); the three pairs of ``JOINT_DIMS`` are one 6-D Sobol' point,
+stratified together. A draw may take several samples (path regeneration).
 
 ``independent``: the numbers below, generated on the host for every pass and uploaded (one
 ``R32F`` buffer texture, float32 in [0, 1), 24 random bits each, ``D = features.random_dims``)::
@@ -67,6 +68,16 @@ DIM_BSDF_UV = 3
 DIM_RR = 5
 DIMS_LENS = 2          # thin lens: the point on the aperture, after the last bounce
 
+#: The path dimensions the sobol sampler draws together from one 6-D Owen-scrambled Sobol' point
+#: instead of three padded 2-D points (mcpt/shading/sobol.py, issue #23): the BSDF direction at the
+#: first hit, the light point at the second and the BSDF direction there. Their joint strata are
+#: what indirect light varies over most: relMSE x spp at 256 spp x0.89 on the Cornell box and x0.86
+#: on the 100k sphere against padded pairs (bench/sampler-quality.md), where padding all of them
+#: alike had left mcpt level with Mitsuba's multijitter.
+JOINT_DIMS = (DIMS_CAMERA + DIM_BSDF_UV,
+              DIMS_CAMERA + DIMS_PER_BOUNCE + DIM_LIGHT_UV,
+              DIMS_CAMERA + DIMS_PER_BOUNCE + DIM_BSDF_UV)
+
 
 def dims_for(bounces: int, lens: bool = False) -> int:
     """Random numbers one path of ``bounces`` scattering events may read (``lens``: thin lens)."""
@@ -76,7 +87,8 @@ def dims_for(bounces: int, lens: bool = False) -> int:
 def layout_defines() -> dict[str, int]:
     return {"MCPT_DIMS_CAMERA": DIMS_CAMERA, "MCPT_DIMS_PER_BOUNCE": DIMS_PER_BOUNCE,
             "MCPT_DIM_LIGHT_PICK": DIM_LIGHT_PICK, "MCPT_DIM_LIGHT_UV": DIM_LIGHT_UV,
-            "MCPT_DIM_BSDF_UV": DIM_BSDF_UV, "MCPT_DIM_RR": DIM_RR}
+            "MCPT_DIM_BSDF_UV": DIM_BSDF_UV, "MCPT_DIM_RR": DIM_RR,
+            **{f"MCPT_SOBOL_JOINT{t}": d for t, d in enumerate(JOINT_DIMS)}}
 
 
 class RandomNumbers:
