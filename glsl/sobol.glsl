@@ -73,6 +73,7 @@ void sobol_init(int pixel, uint index) {
     g_sobol_index = index;
     // The joint point (mcpt/shading/sobol.py joint_bits): one shuffle of the index for all six
     // coordinates, 16 of its bits; the bits above seed the scrambles.
+#if MCPT_SOBOL_JOINT
     uint key = sobol_hash(g_sobol_pixel ^ 0x6a09e667u);
     uint low = bitfieldReverse(laine_karras(bitfieldReverse(index), key)) & 0xffffu;
     uint epoch = sobol_hash(key ^ (index >> 16));
@@ -81,6 +82,7 @@ void sobol_init(int pixel, uint index) {
     sobol_dims_2_5(low, d23, d45);
     g_sobol_joint1 = vec2(sobol_joint(d23 & 0xffffu, epoch, 2u), sobol_joint(d23 >> 16, epoch, 3u));
     g_sobol_joint2 = vec2(sobol_joint(d45 & 0xffffu, epoch, 4u), sobol_joint(d45 >> 16, epoch, 5u));
+#endif
 }
 
 // Index shuffle of dimension `dim`; also returns the dimension's key.
@@ -89,11 +91,15 @@ uint sobol_index(int dim, out uint s) {
     return bitfieldReverse(laine_karras(bitfieldReverse(g_sobol_index), s));
 }
 
-// The joint point's pair where `dim` is one of its dims, else `padded`.
+// The joint point's pair where `dim` is one of its dims, else `padded`. Compiled out where paths
+// have one bounce (features: MCPT_SOBOL_JOINT, mcpt/shading/sampler.py joint_used).
 vec2 sobol_joined(int dim, vec2 padded) {
+#if MCPT_SOBOL_JOINT
     padded = dim == MCPT_SOBOL_JOINT0 ? g_sobol_joint0 : padded;
     padded = dim == MCPT_SOBOL_JOINT1 ? g_sobol_joint1 : padded;
-    return dim == MCPT_SOBOL_JOINT2 ? g_sobol_joint2 : padded;
+    padded = dim == MCPT_SOBOL_JOINT2 ? g_sobol_joint2 : padded;
+#endif
+    return padded;
 }
 
 float sobol_1d(int dim) {

@@ -150,3 +150,13 @@ def test_features_keep_scene_uses_apart_from_options_limits_and_switches():
         for_world(world, sampleing="nee")
     with pytest.raises(ValueError, match="sampling"):
         Features.of(bounces=2, sampling="bdsf")
+
+
+def test_the_joint_sobol_point_is_compiled_only_where_a_second_hit_reads_it():
+    from mcpt.gpu.features import derive
+
+    kw = dict(n_emissive=2, material_types={"diffuse"}, n_triangles=36)
+    assert derive(bounces=2, **kw).defines()["MCPT_SOBOL_JOINT"] == 1
+    assert derive(bounces=1, **kw).defines()["MCPT_SOBOL_JOINT"] == 0
+    assert derive(bounces=8, sampler="independent", **kw).defines()["MCPT_SOBOL_JOINT"] == 0
+    assert derive(bounces=1, **kw).key != derive(bounces=2, **kw).key

@@ -53,7 +53,8 @@ def test_pascal_transform_is_sobol_dimension_1():
     assert np.array_equal(sobol.reverse_bits(sobol.pascal(idx)), sobol_from_direction_numbers(idx, 1))
 
 
-def test_gpu_matches_numpy_bit_for_bit():
+@pytest.mark.parametrize("joint", [True, False])
+def test_gpu_matches_numpy_bit_for_bit(joint):
     rng = np.random.default_rng(1)
     n = 4096
     probe = np.zeros((n, 4), U32)
@@ -66,10 +67,11 @@ def test_gpu_matches_numpy_bit_for_bit():
     probe[8:264, 2] = rng.integers(0, 1 << 16, 256)
     seed = 12345
     gl = shared_context()
-    out = run_test_probe(gl, "probe_sobol.frag", probe, n, key="sobol", preamble=_PREAMBLE,
+    out = run_test_probe(gl, "probe_sobol.frag", probe, n, key=("sobol", joint),
+                         preamble=_PREAMBLE + f"#define MCPT_SOBOL_JOINT {int(joint)}\n",
                          uniforms={"u_sobol_seed": sobol.seed32(seed)})
     got = out[:, :3].view(np.float32)
-    want = sobol.sample_2d(seed, probe[:, 0], probe[:, 1], probe[:, 2])
+    want = sobol.sample_2d(seed, probe[:, 0], probe[:, 1], probe[:, 2], joint=joint)
     assert np.array_equal(got[:, :2], want)
     assert np.array_equal(got[:, 2], want[:, 0])
 

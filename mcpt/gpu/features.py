@@ -32,7 +32,7 @@ from ..shading.camera import camera_uses
 from ..shading.lights import count_uses, light_uses
 from ..shading.medium import equiangular_used, medium_dims, medium_uses
 from ..shading.roulette import RR_START
-from ..shading.sampler import dims_for, layout_defines
+from ..shading.sampler import dims_for, joint_used, layout_defines
 from ..shapes.geometry import shared_vertices, vertex_bits
 from .limits import (  # noqa: F401 (re-exported: the names callers know features by)
     LLVMPIPE_LOOP_LIMIT,
@@ -177,6 +177,7 @@ class Features:
             "MCPT_BOUNCES": o.bounces,
             "MCPT_RAND_DIMS": self.random_dims,
             "MCPT_SAMPLER_SOBOL": b(o.sampler == "sobol"),
+            "MCPT_SOBOL_JOINT": b(o.sampler == "sobol" and joint_used(o.bounces)),
             **layout_defines(),
             "MCPT_NEE": b(self.nee),
             "MCPT_MIS": b(self.mis),

@@ -79,6 +79,12 @@ JOINT_DIMS = (DIMS_CAMERA + DIM_BSDF_UV,
               DIMS_CAMERA + DIMS_PER_BOUNCE + DIM_BSDF_UV)
 
 
+def joint_used(bounces: int) -> bool:
+    """Whether paths of ``bounces`` read the joint point's second hit; with one bounce the first
+    hit's pair alone is as good padded, and the shader compiles the joint point out."""
+    return int(bounces) >= 2
+
+
 def dims_for(bounces: int, lens: bool = False) -> int:
     """Random numbers one path of ``bounces`` scattering events may read (``lens``: thin lens)."""
     return DIMS_CAMERA + DIMS_PER_BOUNCE * int(bounces) + (DIMS_LENS if lens else 0)

@@ -29,7 +29,9 @@ statistics (uniformity, (0,2)-net stratification) on this file:
   them cut relMSE at 256 spp by 11 % (Cornell box) and 14 % (100k sphere), bench/sampler-quality.md
   (issue #23). Every number is still uniform on its own and the joint point uniform in [0, 1)^6
   (Owen 1995), so nothing is biased. The shuffle keeps 16 index bits (2^16 samples a pixel);
-  each further 2^16 samples are a new scramble (the bits above 16 seed it).
+  each further 2^16 samples are a new scramble (the bits above 16 seed it). Paths of one bounce
+  never reach the second hit: their programs leave the joint point out (``sampler.joint_used``)
+  and draw the same numbers as before it.
 
 Cost on llvmpipe: a few dozen integer vector instructions per number, against a per-lane
 ``texelFetch`` per number for the ``independent`` sampler (which dominates; glsl/sampler.glsl).
@@ -178,11 +180,14 @@ def joint_bits(seed: int, pixel, index) -> np.ndarray:
                          for t, v in enumerate(coords)], axis=-1)
 
 
-def sample_2d(seed: int, pixel, dim, index) -> np.ndarray:
+def sample_2d(seed: int, pixel, dim, index, joint: bool = True) -> np.ndarray:
     """What ``rand2_at(dim)`` returns in pass ``index``: shape (..., 2) float32 in [0, 1); its x is
-    what ``rand_at(dim)`` returns."""
+    what ``rand_at(dim)`` returns. ``joint``: the program has the joint point (MCPT_SOBOL_JOINT,
+    ``sampler.joint_used``); without it every dim is padded."""
     x, y = sample_bits(seed, pixel, dim, index)
     out = np.stack([to_float(x), to_float(y)], axis=-1)
+    if not joint:
+        return out
     joint_at = [np.broadcast_to(_u(dim) == U32(d), out.shape[:-1]) for d in JOINT_DIMS]
     if not any(at.any() for at in joint_at):
         return out
