@@ -6,7 +6,7 @@ their inputs, so a caller that joins them in that order gets the sequential resu
 whichever thread ran what. One pool per process, made on first use; a job that calls
 :func:`ordered` itself runs those jobs in its own thread (waiting for the pool it occupies could
 wait forever).
-``MCPT_THREADS`` sets the threads (default 1: everything runs in the calling thread; 0: every core).
+``MCPT_THREADS`` sets the threads (default 0: every core; 1: everything runs in the calling thread).
 """
 
 from __future__ import annotations
@@ -22,11 +22,12 @@ _PREFIX = "mcpt-job"
 
 
 def workers() -> int:
-    """Threads to use: ``MCPT_THREADS`` if set (0: the cores this process may run on), else 1.
-    One by default: on two free cores the threads bought no wall time and cost CPU (10^6-triangle
-    set-up, fresh processes alternating: cold 4.71 s wall / 5.84 CPU-s with two threads against
-    4.90 / 5.22 with one; warm 0.30 against 0.25 s; bench/RESULTS.md)."""
-    raw = os.environ.get("MCPT_THREADS", "1")
+    """Threads to use: ``MCPT_THREADS`` if set, else 0 = the cores this process may run on.
+    Every core by default since the BVH's row splits joined the OBJ reader's blocks (stop 34,
+    10^6-triangle set-up, fresh processes alternating 6 rounds on two quiet cores: cold 3.00 s
+    against 3.20 s with one thread, medians, at ~1.2x the CPU; warm 0.20-0.22 against 0.21-0.27 s;
+    bench/RESULTS.md). Stop 30 had measured no wall gain (4.71 against 4.90 s) and kept one."""
+    raw = os.environ.get("MCPT_THREADS", "0")
     try:
         n = int(raw)
     except ValueError:

@@ -74,3 +74,25 @@ def test_plain_median_tree_closest_hits_match_brute_force():
     lo, hi = tris.min(axis=(0, 1)), tris.max(axis=(0, 1))
     origins = lo + rng.random((2000, 3)) * (hi - lo)
     assert_same_hits(bvh, tris, origins, rng.standard_normal((2000, 3)), min_hit_fraction=0.3)
+
+
+def test_rows_split_on_several_threads_give_the_one_thread_tree(monkeypatch):
+    """Chunks of a level's rows run on the pool (bvh_median._split_rows): the same nodes and order
+    as in one thread, for widths that split evenly and unevenly and for a block of equal
+    centroids (axis 0 everywhere), and the tree is still a median tree."""
+    from mcpt import parallel
+    from mcpt.shapes import bvh_median
+
+    monkeypatch.setattr(bvh_median, "_PARALLEL_MIN", 64)  # chunk even small levels
+    rng = np.random.default_rng(4)
+    cases = [random_triangles(rng, 6001), random_triangles(rng, 4096),
+             np.repeat(random_triangles(rng, 1), 3000, axis=0)]
+    for tris in cases:
+        built = {}
+        for threads in ("1", "3"):
+            monkeypatch.setenv("MCPT_THREADS", threads)
+            monkeypatch.setattr(parallel, "_POOL", None)
+            built[threads] = build_median_bvh(tris, max_leaf=4, sah=False)
+        assert np.array_equal(built["1"].nodes, built["3"].nodes)
+        assert np.array_equal(built["1"].order, built["3"].order)
+        _check_median_tree(built["3"], tris, 4)

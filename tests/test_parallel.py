@@ -69,3 +69,11 @@ def test_a_forked_child_makes_its_own_pool(monkeypatch):
     if alive:
         child.kill()
     assert not alive and queue.get(timeout=1) == [0, 1, 4, 9]
+
+
+def test_every_core_is_the_default(monkeypatch):
+    monkeypatch.delenv("MCPT_THREADS", raising=False)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert parallel.workers() == max(1, cores)
+    monkeypatch.setenv("MCPT_THREADS", "0")
+    assert parallel.workers() == max(1, cores)

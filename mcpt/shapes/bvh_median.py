@@ -29,12 +29,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..parallel import ordered, workers
 from .bvh_flatten import Level
 
 #: Rows narrower than this take their minima and maxima column by column (one vector operation
 #: per column over all rows): numpy's reduction along a short contiguous row costs a loop set-up
 #: per row, 3-4x slower at width 8 (measured on 2^20 float32 values).
 _COLUMN_REDUCE_WIDTH = 16
+#: Blocks of fewer triangles split in the calling thread (a thread's hand-off costs more).
+_PARALLEL_MIN = 1 << 16
 
 
 @dataclass
@@ -107,38 +110,51 @@ def _next_rows(splitting: list[_Rows], max_leaf: int) -> dict[int, _Rows]:
 
 def _split_rows(block: _Rows, rank: np.ndarray, dest: dict[int, _Rows], filled: dict[int, int]) -> np.ndarray:
     """Split every row of ``block`` at the object median of its longest centroid axis, the halves
-    taken straight into their rows of ``dest``; return the rows' axes."""
+    taken straight into their rows of ``dest``; return the rows' axes. Rows are independent and
+    their destinations fixed here, so chunks of rows run on every core (mcpt/parallel.py) and
+    give the same tree as one pass over all of them."""
     r, w = block.ids.shape
-    extent = np.stack([_row_max(c) - _row_min(c) for c in block.cen], axis=1)
-    row_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
-    k0 = int(row_axis[0])
-    if (row_axis == k0).all():
-        key = block.cen[k0]
-    else:
-        # Row by row from the axis's array: each value is read once (a where-chain reads two).
-        key = np.empty_like(block.cen[0])
-        for k in range(3):
-            sel = np.flatnonzero(row_axis == k)
-            key[sel] = block.cen[k][sel]
     h = w // 2
-    # The h smallest keys of each row before position h, the others from h on: an object median.
-    perm = np.argpartition(key, h, axis=1)
-    perm += (np.arange(r, dtype=np.int64) * w)[:, None]
     kids = 2 * rank
+    # Destinations first: (width, offset of the chunk's first row there, rows per block row).
     if 2 * h == w:
         # Both halves h wide: row i of the permuted block is rows 2i, 2i + 1 of the children's.
-        d, o = dest[h], filled[h]
+        outs = [(h, filled[h], 2, slice(0, w))]
+        dest[h].node[filled[h]:filled[h] + 2 * r] = (kids[:, None] + np.arange(2)).ravel()
         filled[h] += 2 * r
-        d.node[o:o + 2 * r] = (kids[:, None] + np.arange(2)).ravel()
-        _take_rows(block, perm, d, o, 2 * r, (r, w))
     else:
+        outs = []
         for node, cols in ((kids, slice(0, h)), (kids + 1, slice(h, w))):
             width = cols.stop - cols.start
-            d, o = dest[width], filled[width]
+            outs.append((width, filled[width], 1, cols))
+            dest[width].node[filled[width]:filled[width] + r] = node
             filled[width] += r
-            d.node[o:o + r] = node
-            _take_rows(block, np.ascontiguousarray(perm[:, cols]), d, o, r, (r, width))
-    return row_axis
+    n_chunks = min(workers(), r) if r * w >= _PARALLEL_MIN else 1
+    cut = [r * c // n_chunks for c in range(n_chunks + 1)]
+
+    def chunk(c: int) -> np.ndarray:
+        a, b = cut[c], cut[c + 1]
+        rows = slice(a, b)
+        extent = np.stack([_row_max(x[rows]) - _row_min(x[rows]) for x in block.cen], axis=1)
+        row_axis = np.argmax(extent, axis=1)  # all-equal centroids: axis 0, split by position
+        k0 = int(row_axis[0])
+        if (row_axis == k0).all():
+            key = block.cen[k0][rows]
+        else:
+            # Row by row from the axis's array: each value is read once (a where-chain reads two).
+            key = np.empty((b - a, w), np.float32)
+            for k in range(3):
+                sel = np.flatnonzero(row_axis == k)
+                key[sel] = block.cen[k][a + sel]
+        # The h smallest keys of each row before position h, the others from h on: an object median.
+        perm = np.argpartition(key, h, axis=1)
+        perm += (np.arange(a, b, dtype=np.int64) * w)[:, None]
+        for width, o, per, cols in outs:
+            part = perm if per == 2 else np.ascontiguousarray(perm[:, cols])
+            _take_rows(block, part, dest[width], o + per * a, per * (b - a), (b - a, cols.stop - cols.start))
+        return row_axis
+
+    return np.concatenate(ordered(chunk, range(n_chunks)))
 
 
 def _take_rows(block: _Rows, index: np.ndarray, d: _Rows, o: int, n: int, shape: tuple[int, int]) -> None:
