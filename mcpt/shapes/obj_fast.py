@@ -330,7 +330,8 @@ def _near_pairs(rows: np.ndarray) -> bool:
         return True
     half = half.astype(np.int64)
     mult = np.array([1, 0x9E3779B1, 0x85EBCA77], np.int64)[:k]
-    for shift in range(2**k):
+
+    def near_in_grid(shift: int) -> bool:
         key = np.zeros(m, np.int64)
         with np.errstate(over="ignore"):
             for ax in range(k):
@@ -338,15 +339,16 @@ def _near_pairs(rows: np.ndarray) -> bool:
         s = np.sort(key)
         same = s[1:] == s[:-1]
         if not same.any():
-            continue
+            return False
         if (same[1:] & same[:-1]).any():
             return True  # three rows in one cell (or a hash clash): let Assimp decide
         order = np.argsort(key, kind="stable")
         i = np.flatnonzero(key[order][1:] == key[order][:-1])
         diff = r[order[i]] - r[order[i + 1]]
-        if (np.einsum("ij,ij->i", diff, diff) <= JOIN_EPSILON**2).any():
-            return True
-    return False
+        return bool((np.einsum("ij,ij->i", diff, diff) <= JOIN_EPSILON**2).any())
+
+    # The grids are independent (a sort each: ~0.04 s at 5 * 10^5 rows): on every core.
+    return any(ordered(near_in_grid, range(2**k)))
 
 
 def _joined(path, corners, fields, tables, need_normals, tri=None) -> RawMesh:
