@@ -156,8 +156,6 @@ def sample_bits(seed: int, pixel, dim, index) -> tuple[np.ndarray, np.ndarray]:
     return reverse_bits(laine_karras(shuffled, sx)), reverse_bits(laine_karras(pascal(shuffled), sy))
 
 
-
-
 def matrix(i, columns) -> np.ndarray:
     """Bit-reversed Sobol' coordinate of index ``i``: the XOR of the columns of its set bits."""
     i = _u(i)
@@ -191,7 +189,7 @@ def sample_2d(seed: int, pixel, dim, index, joint: bool = True) -> np.ndarray:
     joint_at = [np.broadcast_to(_u(dim) == U32(d), out.shape[:-1]) for d in JOINT_DIMS]
     if not any(at.any() for at in joint_at):
         return out
-    joint = np.broadcast_to(to_float(joint_bits(seed, pixel, index)), out.shape[:-1] + (6,))
+    point = np.broadcast_to(to_float(joint_bits(seed, pixel, index)), out.shape[:-1] + (6,))
     for t, at in enumerate(joint_at):
-        out[at] = joint[at][:, 2 * t:2 * t + 2]
+        out[at] = point[at][:, 2 * t:2 * t + 2]
     return out
