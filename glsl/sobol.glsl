@@ -6,6 +6,10 @@
 uniform uint u_sobol_seed;    // 32-bit key derived from --seed (mcpt/shading/sobol.py seed32)
 uniform uint u_sample_index;  // the pass
 
+#ifndef MCPT_SOBOL_JOINT
+#define MCPT_SOBOL_JOINT 0
+#endif
+
 uint g_sobol_pixel;  // per-pixel key
 uint g_sobol_index;  // the sample index (u_sample_index in the renderer)
 // The sample's joint point: the 2D samples of path dims MCPT_SOBOL_JOINT0..2 (sobol_init).
