@@ -45,19 +45,13 @@ void path_scatter(inout Path P, BsdfSample s, vec3 x, vec3 ng, vec3 xo) {
     P.k = P.k + 1;
 }
 
-#if MCPT_CONTINUE
-#define SEGMENT_TICKS (MCPT_LOOP_LIMIT / 4)
-bool segment_spent() { return g_loop_iterations >= SEGMENT_TICKS; }
-
-// One texel per pixel each (RGBA32F, bound as images 0-3; w of state 0 is k, 0 = no path).
+#if MCPT_CONTINUE || MCPT_WAVE
+// A path between draws (MCPT_CONTINUE) or between the wavefront's kernels (glsl/wavefront.glsl):
+// one texel per pixel each (RGBA32F, bound as images 0-3; w of state 0 is k, 0 = no path).
 layout(binding = 0, rgba32f) uniform image2D u_state0;  // ray.o, k
 layout(binding = 1, rgba32f) uniform image2D u_state1;  // ray.d, pdf_bsdf_prev
 layout(binding = 2, rgba32f) uniform image2D u_state2;  // beta, eta_scale
 layout(binding = 3, rgba32f) uniform image2D u_state3;  // L, 4 * sample j of the draw + 2 * aov_open + delta_prev
-layout(std430, binding = 0) buffer PathCount { uint n_unfinished; };  // reset by the host
-uniform int u_continue;  // 0: start camera paths; 1: continue the stored ones
-
-bool path_stored(ivec2 px) { return imageLoad(u_state0, px).w != 0.0; }
 
 Path path_load(ivec2 px, out int j) {
     vec4 s0 = imageLoad(u_state0, px), s1 = imageLoad(u_state1, px);
@@ -67,11 +61,25 @@ Path path_load(ivec2 px, out int j) {
     return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, (w & 1) != 0, s2.w, (w & 2) != 0);
 }
 
-void path_store(ivec2 px, Path P, int j) {
+void path_write(ivec2 px, Path P, int j) {
     imageStore(u_state0, px, vec4(P.ray.o, float(P.k)));
     imageStore(u_state1, px, vec4(P.ray.d, P.pdf_bsdf_prev));
     imageStore(u_state2, px, vec4(P.beta, P.eta_scale));
     imageStore(u_state3, px, vec4(P.L, float(4 * j + (P.aov_open ? 2 : 0) + (P.delta_prev ? 1 : 0))));
+}
+#endif
+
+#if MCPT_CONTINUE
+#define SEGMENT_TICKS (MCPT_LOOP_LIMIT / 4)
+bool segment_spent() { return g_loop_iterations >= SEGMENT_TICKS; }
+
+layout(std430, binding = 0) buffer PathCount { uint n_unfinished; };  // reset by the host
+uniform int u_continue;  // 0: start camera paths; 1: continue the stored ones
+
+bool path_stored(ivec2 px) { return imageLoad(u_state0, px).w != 0.0; }
+
+void path_store(ivec2 px, Path P, int j) {
+    path_write(px, P, j);
     atomicAdd(n_unfinished, 1u);
 }
 

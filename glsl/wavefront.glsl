@@ -20,10 +20,7 @@ layout(local_size_x = 64) in;
 #endif
 const uint WAVE_NONE = 0xffffffffu;
 
-layout(binding = 0, rgba32f) uniform image2D u_wave0;  // ray.o, k (0: the slot's samples are done)
-layout(binding = 1, rgba32f) uniform image2D u_wave1;  // ray.d, pdf_bsdf_prev
-layout(binding = 2, rgba32f) uniform image2D u_wave2;  // beta, eta_scale
-layout(binding = 3, rgba32f) uniform image2D u_wave3;  // L, 4 * sample j of the draw + delta_prev
+// The path state: images 0-3 of glsl/path_state.glsl (path_write / path_load).
 layout(std430, binding = 2) buffer WaveHits { uvec4 wave_hit[]; };  // t, tri + 1 (0: no hit), bary
 layout(std430, binding = 3) buffer WaveTally { vec4 wave_tally[]; };  // 2 a slot: sum, dropped; sum2, cover
 // Queues: the counts, then the long class from entry 0 and the short one from entry `slots`.
@@ -55,21 +52,6 @@ void wave_enqueue(uint p, Ray r) {
     else out_slot[wave_slots() + atomicAdd(out_short, 1u)] = p;
 }
 
-void wave_store(ivec2 at, Path P, int j) {
-    imageStore(u_wave0, at, vec4(P.ray.o, float(P.k)));
-    imageStore(u_wave1, at, vec4(P.ray.d, P.pdf_bsdf_prev));
-    imageStore(u_wave2, at, vec4(P.beta, P.eta_scale));
-    imageStore(u_wave3, at, vec4(P.L, float(4 * j + (P.delta_prev ? 1 : 0))));
-}
-
-Path wave_load(ivec2 at, out int j) {
-    vec4 s0 = imageLoad(u_wave0, at), s1 = imageLoad(u_wave1, at);
-    vec4 s2 = imageLoad(u_wave2, at), s3 = imageLoad(u_wave3, at);
-    int w = int(s3.w);
-    j = w >> 2;
-    return Path(Ray(s0.xyz, s1.xyz), s2.xyz, s3.xyz, int(s0.w), s1.w, (w & 1) != 0, s2.w, false);
-}
-
 void wave_shade() {
     uint p = u_wave_start != 0 ? wave_index() : wave_queued(wave_index());
     if (p >= wave_slots()) return;
@@ -82,7 +64,7 @@ void wave_shade() {
     if (u_wave_start != 0) {
         P = sample_start(pixel, pix, tile_pix, 0);
     } else {
-        P = wave_load(frag, j);
+        P = path_load(frag, j);
         vec4 a = wave_tally[2u * p], b = wave_tally[2u * p + 1u];
         T.sum = a.rgb; T.dropped = a.a; T.sum2 = b.rgb; T.cover = b.a;
         sampler_init(pix, tile_pix, j);
@@ -98,7 +80,7 @@ void wave_shade() {
             P = sample_start(pixel, pix, tile_pix, j);
         }
     }
-    wave_store(frag, P, j);
+    path_write(frag, P, j);
     wave_tally[2u * p] = vec4(T.sum, T.dropped);
     wave_tally[2u * p + 1u] = vec4(T.sum2, T.cover);
     wave_enqueue(p, P.ray);
@@ -109,7 +91,7 @@ void wave_trace() {
     if (p == WAVE_NONE) return;
     ivec2 at = wave_frag(p);
     Hit h;
-    bool found = trace_closest(Ray(imageLoad(u_wave0, at).xyz, imageLoad(u_wave1, at).xyz), h);
+    bool found = trace_closest(Ray(imageLoad(u_state0, at).xyz, imageLoad(u_state1, at).xyz), h);
     wave_hit[p] = uvec4(floatBitsToUint(h.t), found ? uint(h.tri + 1) : 0u, floatBitsToUint(h.bary));
 }
 
