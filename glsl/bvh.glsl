@@ -1,7 +1,8 @@
 // Closest-hit and any-hit traversal (host side: mcpt/shapes/bvh.py BVH.gpu_nodes defines the layout).
 // One RGBA32UI buffer holds interior nodes (4 texels: both children's boxes and references)
 //   (left.bmin, left.ref), (left.bmax, 0), (right.bmin, right.ref), (right.bmax, 0)
-// then triangle records (3 texels: (v0, triangle index), (v1, 0), (v2, 0)) and one pad texel.
+// and triangle records (3 texels: (v0, triangle index), (v1, 0), (v2, 0)) in the tree's depth-first
+// order, a leaf's triangles where the leaf stands, then one pad texel.
 #include "geometry.glsl"
 
 layout(binding = 1) uniform usamplerBuffer u_nodes;

@@ -88,21 +88,30 @@ def test_gpu_buffer_references_every_triangle_once():
     tr = tris[bvh.order]
     buf = bvh.gpu_nodes(tr)
     n_int = int((~bvh.is_leaf).sum())
-    tri_base = 4 * n_int
-    assert buf.shape == (tri_base + 3 * len(tris) + 1, 4)
-    # Triangle records: the vertices' bits and the triangle's index.
-    recs = buf[tri_base:tri_base + 3 * len(tris)].reshape(-1, 3, 4)
-    assert np.array_equal(recs[:, :, :3].view(np.float32), tr)
-    assert np.array_equal(recs[:, 0, 3], np.arange(len(tris)))
-    # Walk the references: every triangle is reached exactly once.
-    refs = buf[:tri_base].reshape(n_int, 4, 4)[:, [0, 2], 3].ravel().astype(np.int64)
-    count = refs >> GPU_COUNT_SHIFT
-    addr = refs & ((1 << GPU_COUNT_SHIFT) - 1)
-    nodes = addr[count == 0]
-    assert np.array_equal(np.sort(nodes), 4 * np.arange(1, n_int))  # each non-root node once
-    first = (addr[count > 0] - tri_base) // 3
-    covered = np.concatenate([f + np.arange(c) for f, c in zip(first, count[count > 0])])
-    assert np.array_equal(np.sort(covered), np.arange(len(tris)))
+    assert buf.shape == (4 * n_int + 3 * len(tris) + 1, 4)
+    # Walk the references from the root (texel 0): every record is reached exactly once, the
+    # records tile the buffer, and a node's near child follows it (depth-first order, each
+    # leaf's triangle records where the leaf stands in it: issue #23, memory locality).
+    owner = np.full(len(buf), -1, np.int64)
+    seen, stack = [], [0]
+    while stack:
+        ref = stack.pop()
+        count, addr = ref >> GPU_COUNT_SHIFT, ref & ((1 << GPU_COUNT_SHIFT) - 1)
+        span = 4 if count == 0 else 3 * count
+        assert (owner[addr:addr + span] < 0).all()
+        owner[addr:addr + span] = addr
+        if count:
+            rec = buf[addr:addr + span].reshape(count, 3, 4)
+            j = rec[:, 0, 3].astype(np.int64)
+            seen.extend(j)
+            assert np.array_equal(rec[:, :, :3].view(np.float32), tr[j])
+            assert not rec[:, 1:, 3].any()
+        else:
+            left, right = int(buf[addr, 3]), int(buf[addr + 2, 3])
+            assert left & ((1 << GPU_COUNT_SHIFT) - 1) == addr + 4
+            stack += [right, left]
+    assert (owner[:-1] >= 0).all() and owner[-1] < 0  # one pad texel after the records
+    assert np.array_equal(np.sort(seen), np.arange(len(tris)))
 
 
 def test_counters_are_compiled_out_by_default_and_add_up(gl):

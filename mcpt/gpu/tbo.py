@@ -28,7 +28,7 @@ GL_R32F = 0x822E
 # Texture unit of every buffer the shaders read; the GLSL side uses the same numbers
 # (glsl/*.glsl `layout(binding = N)`), checked by tests/test_shader.py.
 UNITS = {
-    "nodes": 1,       # BVH interior nodes, 4 texels each (mcpt/shapes/bvh.py BVH.gpu_nodes)
+    "nodes": 1,       # BVH interior nodes (4 texels) and triangles (3) (mcpt/shapes/bvh.py BVH.gpu_nodes)
     "tris": 2,        # triangle vertices, 3 texels each (mcpt/shapes/geometry.py)
     "lights": 3,      # light table, 1 texel per light + punctual data (mcpt/shading/lights.py)
     "materials": 4,   # material table, 2 or 4 texels each (mcpt/shading/materials.py)
