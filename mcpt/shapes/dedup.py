@@ -36,10 +36,38 @@ def first_of_repeated_corners(tris32: np.ndarray) -> np.ndarray:
     w = np.ascontiguousarray(tris32, dtype=np.float32).view(np.uint32)
     if len(w) < 2:
         return np.arange(len(w))
+    # A key that any order of the corners leaves unchanged (each coordinate's words summed over
+    # the corners, exactly, then mixed): equal triangles have equal keys, so only triangles
+    # whose key repeats can repeat, and the first of each lies among them. Usually none does:
+    # no hash of rows, no canonical rotation (0.05 s against 0.09-0.14 s for the cyclic hash at
+    # 10^6 triangles, issue #23).
+    key = _corner_sum_key(w)
+    s = np.sort(key)
+    same = s[1:] == s[:-1]
+    if not same.any():
+        return np.arange(len(w))
+    suspects = np.flatnonzero(np.isin(key, s[1:][same]))
+    if suspects.size < len(w):
+        first = _first_of_cyclic(w[suspects])
+        keep = np.ones(len(w), bool)
+        keep[suspects] = False
+        keep[suspects[first]] = True
+        return np.flatnonzero(keep)
+    return _first_of_cyclic(w)
+
+
+def _corner_sum_key(w: np.ndarray) -> np.ndarray:
+    """(F,) uint64 key of (F, 3, 3) corner words, the same for every order of the corners."""
+    sums = [w[:, 0, k].astype(np.uint64) + w[:, 1, k] + w[:, 2, k] for k in range(3)]
+    with np.errstate(over="ignore"):
+        return sums[0] * _MIX1 + sums[1] * _MIX2 + sums[2]
+
+
+def _first_of_cyclic(w: np.ndarray) -> np.ndarray:
+    """first_of_repeated_corners of (F, 3, 3) corner words, by the cyclic hash."""
     s = np.sort(_cyclic_hash(w))
     if not (s[1:] == s[:-1]).any():
-        # Equal triangles (up to rotation) hash equal: no equal hashes, no repeats. The common
-        # case, without the canonical rotation below (0.25 s at 10^6 triangles, issue #23).
+        # Equal triangles (up to rotation) hash equal: no equal hashes, no repeats.
         return np.arange(len(w))
     c0, c1, c2 = w[:, 0], w[:, 1], w[:, 2]
     # Strictly smaller than the smallest so far: ties keep the first corner (np.argmin's rule).

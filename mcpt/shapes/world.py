@@ -233,10 +233,11 @@ def _drop_repeated(tris32: np.ndarray, n_meshes: int):
         return tris32, slice(None), 0
     keep = first_of_repeated_corners(tris32)
     repeated = int(tris32.shape[0] - keep.size)
-    if repeated:
-        # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one
-        # surface for BSDF hits: direct light counted double.
-        log.info("dropped %d triangles repeated across mesh files", repeated)
+    if not repeated:
+        return tris32, slice(None), 0  # no copy of every triangle
+    # The same surface twice (e.g. a light listed twice) would be two lights for NEE but one
+    # surface for BSDF hits: direct light counted double.
+    log.info("dropped %d triangles repeated across mesh files", repeated)
     return tris32[keep], keep, repeated
 
 
