@@ -360,3 +360,11 @@ def test_dispatch_bench_renders_every_dispatch_to_the_same_bits(gl):
                          spp=2, rounds=2, resolution=(24, 16))
     assert r["same_bits"] and r["paths"] == 2 * 2 * 24 * 16
     assert all(r["cpu_s"][m] > 0 and r["wall_s"][m] > 0 for m in ("fragment", "compute", "wavefront"))
+
+
+def test_fetch_cost_reads_the_same_chain_through_both_buffer_kinds(gl):
+    from mcpt.bench import fetch_cost
+
+    r = fetch_cost.measure(4096, steps=8, size=32, rounds=1)  # raises if the two sums differ
+    assert r["bytes"] == 4096 * 16
+    assert r["tbo_ns_per_fetch"] > 0 and r["ssbo_ns_per_fetch"] > 0

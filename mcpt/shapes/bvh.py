@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..parallel import ordered
+
 __all__ = [
     "BVH",
     "LEAF_FLAG",
@@ -204,9 +206,10 @@ class BVH:
         then one pad texel (the shader always reads four texels). The records follow the tree's
         depth-first order, a leaf's triangles where the leaf stands (the root at texel 0, a
         node's left child right after it): a subtree is one stretch of the buffer and a leaf's
-        triangles lie next to their parent. Issue #23: 1.04-1.05x paths per CPU-second on the
-        bunny and the 10^6-triangle sphere against all nodes first, then all triangles (1.01x
-        on the 100k sphere), the same hits. A child reference is the
+        triangles lie next to their parent. Issue #23, against all nodes first, then all
+        triangles: paths per CPU-second 1.00-1.05x on the bunny, the 100k and the 10^6-triangle
+        spheres in two runs, the same hits (bench/RESULTS.md, stop 35; 64-byte-aligned node
+        records measured 0.90-0.99x, sibling records side by side 0.92-1.03x). A child reference is the
         texel address of its record, plus ``count << 28`` for a leaf of ``count`` consecutive
         triangle records. Nodes and triangles share the buffer so one traversal step reads a node
         OR a triangle with the same four fetches (issue #14). A tree that is a single leaf becomes
@@ -229,17 +232,18 @@ class BVH:
         if counts.max(initial=0) > GPU_MAX_LEAF:
             raise ValueError(f"leaves of up to {counts.max()} triangles; the GPU "
                              f"traversal handles {GPU_MAX_LEAF} (build with max_leaf <= {GPU_MAX_LEAF})")
-        texels = _triangle_texels(tris)
         if leaf[0]:
             out = np.zeros((4 + 3 * n_tris + 1, 4), np.uint32)
-            out[4:4 + 3 * n_tris] = texels.reshape(-1, 4)
+            recs = out[4:4 + 3 * n_tris].reshape(n_tris, 3, 4)
+            recs[:, :, :3] = tris.view(np.uint32)
+            recs[:, 0, 3] = np.arange(n_tris, dtype=np.uint32)
             out[0, :3], out[1, :3] = nodes[0, 0:3], nodes[0, 4:7]
             out[0, 3] = 4 | (n_tris << GPU_COUNT_SHIFT) if n_tris else 0
             out[2, :3] = np.full(3, np.inf, np.float32).view(np.uint32)   # empty box
             out[3, :3] = np.full(3, -np.inf, np.float32).view(np.uint32)
             out[2, 3] = out[0, 3]
             return out
-        return _depth_first(nodes, leaf, counts, self.leaf_first, texels)
+        return _depth_first(nodes, leaf, counts, self.leaf_first, tris)
 
     def dense_nodes(self) -> np.ndarray:
         """Layout of the wide-leaf traversal (glsl/bvh.glsl, MCPT_BVH_DENSE): ``(I * 4, 4)``
@@ -328,41 +332,43 @@ class BVH:
         return float((area * price).sum() / area[0])
 
 
-def _triangle_texels(tris: np.ndarray) -> np.ndarray:
-    """(F, 3, 4) uint32 triangle records of BVH.gpu_nodes: (v0 bits, j), (v1 bits, 0), (v2 bits, 0)."""
-    out = np.zeros((len(tris), 3, 4), np.uint32)
-    out[:, :, :3] = tris.view(np.uint32)
-    out[:, 0, 3] = np.arange(len(tris), dtype=np.uint32)
-    return out
-
-
 def _depth_first(nodes: np.ndarray, leaf: np.ndarray, counts: np.ndarray, leaf_first: np.ndarray,
-                 texels: np.ndarray) -> np.ndarray:
+                 tris: np.ndarray) -> np.ndarray:
     """BVH.gpu_nodes' buffer of a tree with an interior root: a 4-texel record per interior node
-    and each leaf's triangle records (``texels``, :func:`_triangle_texels`), in the order of the
-    tree record's rows (depth-first), then a pad texel."""
+    and each leaf's triangle records (``tris``: (F, 3, 3) float32 in BVH order), in the order of
+    the tree record's rows (depth-first), then a pad texel."""
     size = np.where(leaf, 3 * counts, 4)
     addr = np.cumsum(size) - size
     total = int(addr[-1] + size[-1]) + 1
     if total > GPU_ADDRESS_LIMIT:
         raise ValueError(f"{total} texels do not fit the 28-bit references of the traversal")
-    leaves = np.flatnonzero(leaf)
-    lc = counts[leaves]
-    within = np.arange(int(lc.sum())) - np.repeat(np.cumsum(lc) - lc, lc)
-    tri_addr = np.empty(len(within), np.int64)  # triangle j's record
-    tri_addr[np.repeat(leaf_first[leaves], lc) + within] = np.repeat(addr[leaves], lc) + 3 * within
-    interior = np.flatnonzero(~leaf)
-    recs = np.empty((interior.size, 4, 4), np.uint32)
-    halves = nodes.view("V16").reshape(-1)  # node i's (bmin, a) and (bmax, b) at 2i, 2i + 1
-    for slot, child in ((0, interior + 1), (2, nodes[interior, 3].astype(np.int64))):
-        recs.view("V16")[:, slot, 0] = halves[2 * child]
-        recs.view("V16")[:, slot + 1, 0] = halves[2 * child + 1]
-        recs[:, slot, 3] = (addr[child] | (counts[child] << GPU_COUNT_SHIFT)).astype(np.uint32)
-        recs[:, slot + 1, 3] = 0
-    # Two scatters of whole texels (one per record kind; the records built contiguous), each
-    # texel moved as one 16-byte item: 3x faster than numpy's row-wise fancy assignment.
     out = np.zeros((total, 4), np.uint32)
+    # Each job builds one record kind contiguous, then scatters it into its own texels of
+    # ``out``, a texel moved as one 16-byte item (3x faster than numpy's row-wise fancy
+    # assignment); the two jobs run on the thread pool (mcpt/parallel.py).
     texel = out.view("V16").reshape(-1)
-    texel[(tri_addr[:, None] + np.arange(3)).ravel()] = texels.view("V16").reshape(-1)
-    texel[(addr[interior][:, None] + np.arange(4)).ravel()] = recs.view("V16").reshape(-1)
+
+    def triangles():
+        leaves = np.flatnonzero(leaf)
+        lc = counts[leaves]
+        within = np.arange(int(lc.sum())) - np.repeat(np.cumsum(lc) - lc, lc)
+        at = np.empty(len(within), np.int64)  # triangle j's record
+        at[np.repeat(leaf_first[leaves], lc) + within] = np.repeat(addr[leaves], lc) + 3 * within
+        recs = np.zeros((len(tris), 3, 4), np.uint32)  # (v0 bits, j), (v1 bits, 0), (v2 bits, 0)
+        recs[:, :, :3] = tris.view(np.uint32)
+        recs[:, 0, 3] = np.arange(len(tris), dtype=np.uint32)
+        texel[(at[:, None] + np.arange(3)).ravel()] = recs.view("V16").reshape(-1)
+
+    def interior_nodes():
+        interior = np.flatnonzero(~leaf)
+        recs = np.empty((interior.size, 4, 4), np.uint32)
+        halves = nodes.view("V16").reshape(-1)  # node i's (bmin, a) and (bmax, b) at 2i, 2i + 1
+        for slot, child in ((0, interior + 1), (2, nodes[interior, 3].astype(np.int64))):
+            recs.view("V16")[:, slot, 0] = halves[2 * child]
+            recs.view("V16")[:, slot + 1, 0] = halves[2 * child + 1]
+            recs[:, slot, 3] = (addr[child] | (counts[child] << GPU_COUNT_SHIFT)).astype(np.uint32)
+            recs[:, slot + 1, 3] = 0
+        texel[(addr[interior][:, None] + np.arange(4)).ravel()] = recs.view("V16").reshape(-1)
+
+    ordered(lambda job: job(), (triangles, interior_nodes))
     return out
