@@ -26,6 +26,7 @@ from ..parallel import ordered
 from .dedup import first_equal
 from .obj_numbers import PAD, Unsupported, assimp_floats, digit_values, token_bounds
 from .raw_mesh import MeshMaterial, RawMesh, RawPart
+from .rows import take_rows
 
 #: Assimp's vertex-join tolerance (JoinVerticesProcess.cpp, ``epsilon``), widened a little so that
 #: float32 rounding in Assimp's own test can never join a pair this check lets through.
@@ -369,15 +370,15 @@ def _joined(path, corners, fields, tables, need_normals, tri=None) -> RawMesh:
     vert_keys = used[np.argsort(first[used], kind="stable")]
     remap = np.empty(len(first), np.int64)
     remap[vert_keys] = np.arange(len(vert_keys))
-    rep = corners[first[vert_keys]]  # the corner that first uses each vertex: its values are kept
+    rep = take_rows(corners, first[vert_keys])  # the corner that first uses each vertex: its values are kept
     col = dict(zip(fields, rep.T))
     normals = None
     if need_normals and _VN in col:
-        normals = tables[_VN][col[_VN]].astype(np.float64)
+        normals = take_rows(tables[_VN], col[_VN]).astype(np.float64)
     uvs = None
     if _VT in col:
-        uvs = tables[_VT][col[_VT]][:, :2].astype(np.float64)
-    part = RawPart(label="sub-mesh #0 'defaultobject'", vertices=tables[_V][col[_V]].astype(np.float64),
+        uvs = take_rows(tables[_VT], col[_VT])[:, :2].astype(np.float64)
+    part = RawPart(label="sub-mesh #0 'defaultobject'", vertices=take_rows(tables[_V], col[_V]).astype(np.float64),
                    indices=remap[key] if tri is None else remap[key][tri].ravel(), material=0,
                    normals=normals, uvs=uvs)
     # Assimp invents "DefaultMaterial" for faces without usemtl (assimp_file._materials gives it

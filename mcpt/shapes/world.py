@@ -35,6 +35,7 @@ from .bvh_build import build_bvh
 from .dedup import first_of_repeated_corners
 from .mesh import Mesh, MeshError, assemble, read_geometry
 from .raw_mesh import MeshMaterial
+from .rows import take_rows
 from .sources import flipped, source_of
 from .sphere import MAX_SPHERES, Sphere, pack_spheres, placed_sphere, sphere_bounds
 
@@ -122,7 +123,7 @@ def load_world(scene: Scene) -> World:
     tris, keep, repeated = _drop_repeated(np.concatenate([p.tris for p in parts]), len(parts))
     bvh = build_bvh(tris)
     bvh.worst_sah_cost()  # the features ask for it (BVH.dense); now, so the set-up cache keeps it
-    tris = tris[bvh.order]
+    tris = take_rows(tris, bvh.order)
     tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
     powers = None
@@ -218,10 +219,10 @@ def _rebased(mesh: Mesh, ids: np.ndarray, origin: np.ndarray) -> MeshPart:
     # Rebase in float64 before the float32 rounding (issue #6: far-from-origin scenes); each
     # vertex is rounded once, before the corners are gathered (the same values as rounding the
     # (F, 3, 3) corners, at a third of the work: issue #23).
-    tris = (mesh.vertices - origin).astype(np.float32)[mesh.faces]
+    tris = take_rows((mesh.vertices - origin).astype(np.float32), mesh.faces)
     f = mesh.num_triangles
-    normals = mesh.normals[mesh.faces] if mesh.normals is not None else None
-    uvs = mesh.uvs[mesh.faces] if mesh.uvs is not None else np.zeros((f, 3, 2), np.float32)
+    normals = take_rows(mesh.normals, mesh.faces) if mesh.normals is not None else None
+    uvs = take_rows(mesh.uvs, mesh.faces) if mesh.uvs is not None else np.zeros((f, 3, 2), np.float32)
     return MeshPart(tris, ids[mesh.face_material], normals, uvs, mesh.dropped_degenerate, mesh.dropped_duplicate)
 
 
@@ -245,8 +246,8 @@ def _corner_tangents(parts: list[MeshPart], keep, order: np.ndarray) -> np.ndarr
     """Corner tangents of the kept triangles in BVH order (zeros: none), if any mesh has them."""
     if all(p.tangents is None for p in parts):
         return None
-    return np.concatenate([p.tangents if p.tangents is not None else np.zeros((len(p.tris), 3, 4))
-                           for p in parts]).astype(np.float32)[keep][order]
+    return take_rows(np.concatenate([p.tangents if p.tangents is not None else np.zeros((len(p.tris), 3, 4))
+                                     for p in parts]).astype(np.float32)[keep], order)
 
 
 def _per_triangle(parts: list[MeshPart], textured: bool, keep, order: np.ndarray):
@@ -255,8 +256,8 @@ def _per_triangle(parts: list[MeshPart], textured: bool, keep, order: np.ndarray
     tri_mat = np.concatenate([p.material for p in parts]).astype(np.int32)[keep][order]
     normals = uvs = None
     if any(p.normals is not None for p in parts):
-        normals = np.concatenate([p.normals if p.normals is not None else np.zeros((len(p.tris), 3, 3), np.float32)
-                                  for p in parts]).astype(np.float32)[keep][order]
+        corner = [p.normals if p.normals is not None else np.zeros((len(p.tris), 3, 3), np.float32) for p in parts]
+        normals = take_rows(np.concatenate(corner).astype(np.float32)[keep], order)
     if textured:
-        uvs = np.concatenate([p.uvs for p in parts]).astype(np.float32)[keep][order]
+        uvs = take_rows(np.concatenate([p.uvs for p in parts]).astype(np.float32)[keep], order)
     return tri_mat, normals, uvs

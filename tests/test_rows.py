@@ -1,0 +1,32 @@
+"""mcpt/shapes/rows.py: whole-row gathers give numpy's fancy indexing's result, bit for bit."""
+
+import numpy as np
+import pytest
+
+from mcpt.shapes.rows import take_rows
+
+
+@pytest.mark.parametrize("shape, dtype", [((50, 3), np.float32), ((40, 3, 3), np.float32), ((30, 2), np.int64),
+                                          ((20, 3), np.float64), ((10,), np.int32), ((25, 3, 4), np.uint32)])
+def test_take_rows_equals_fancy_indexing(shape, dtype):
+    rng = np.random.default_rng(len(shape) * 7 + shape[0])
+    a = (rng.standard_normal(shape) * 1000).astype(dtype)
+    for index in (rng.integers(-shape[0], shape[0], 17), rng.integers(0, shape[0], (6, 3)), np.zeros(0, np.int64)):
+        got = take_rows(a, index)
+        assert got.dtype == a.dtype and got.shape == a[index].shape
+        assert np.array_equal(got.view(np.uint8), a[index].view(np.uint8))
+
+
+def test_take_rows_moves_bits_not_values():
+    # Signalling NaNs and -0.0 survive: rows are copied, never converted.
+    bits = np.array([[0x7F800001, 0x80000000, 0x3F800000], [0xFFC00001, 0, 0x00000001]], np.uint32)
+    a = bits.view(np.float32)
+    assert np.array_equal(take_rows(a, np.array([1, 0, 1])).view(np.uint32), bits[[1, 0, 1]])
+    # A non-contiguous view reads as its values.
+    b = np.arange(24, dtype=np.float32).reshape(4, 6)[:, ::2]
+    assert np.array_equal(take_rows(b, np.array([3, 1])), b[[3, 1]])
+
+
+def test_take_rows_refuses_what_fancy_indexing_refuses():
+    with pytest.raises(IndexError):
+        take_rows(np.zeros((3, 2)), np.array([3]))
