@@ -36,6 +36,7 @@ from ..parallel import ordered
 from .bvh import BVH, DEFAULT_MAX_LEAF, LEAF_FLAG, MAX_STACK, SAH_MAX_TRIANGLES, SAH_STEP_COST, SAH_TRI_COST
 from .bvh_flatten import Level, flatten
 from .bvh_median import median_levels
+from .rows import take_rows
 
 #: A triangle whose box diagonal exceeds this multiple of the median goes to the large subtree.
 LARGE_TRIANGLE_FACTOR = 8.0
@@ -60,8 +61,10 @@ def build_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF, sah: b
         if large.any() and not large.all():
             # The subtrees need only the triangles' centroids and boxes: no (F, 3, 3) copy.
             small_ids, large_ids = np.flatnonzero(~large), np.flatnonzero(large)
-            joined = _join(_median_tree(centroids[small_ids], lo[small_ids], hi[small_ids], max_leaf, sah), small_ids,
-                           _median_tree(centroids[large_ids], lo[large_ids], hi[large_ids], max_leaf, sah), large_ids)
+            joined = _join(_median_tree(*(take_rows(a, small_ids) for a in (centroids, lo, hi)), max_leaf, sah),
+                           small_ids,
+                           _median_tree(*(take_rows(a, large_ids) for a in (centroids, lo, hi)), max_leaf, sah),
+                           large_ids)
             return BVH(joined.nodes, joined.order, joined.depth, max_leaf,
                        time.perf_counter() - t_start)
     bvh = _median_tree(centroids, lo, hi, max_leaf, sah)
