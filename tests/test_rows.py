@@ -30,3 +30,18 @@ def test_take_rows_moves_bits_not_values():
 def test_take_rows_refuses_what_fancy_indexing_refuses():
     with pytest.raises(IndexError):
         take_rows(np.zeros((3, 2)), np.array([3]))
+
+
+def test_put_rows_equals_fancy_assignment():
+    from mcpt.shapes.rows import put_rows
+
+    rng = np.random.default_rng(5)
+    for shape in ((40, 4), (30, 8), (12, 3, 3)):
+        rows = rng.integers(0, 2**32, (10,) + shape[1:], dtype=np.uint32)
+        index = rng.permutation(shape[0])[:10]
+        got, want = np.zeros(shape, np.uint32), np.zeros(shape, np.uint32)
+        put_rows(got, index, rows)
+        want[index] = rows
+        assert np.array_equal(got, want)
+    with pytest.raises(ValueError):
+        put_rows(np.zeros((4, 6), np.uint32)[:, ::2], np.array([0]), np.zeros((1, 3), np.uint32))

@@ -34,6 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..parallel import ordered
+from .geometry import pack_triangles
+from .rows import put_rows, take_rows
 
 __all__ = [
     "BVH",
@@ -234,9 +236,7 @@ class BVH:
                              f"traversal handles {GPU_MAX_LEAF} (build with max_leaf <= {GPU_MAX_LEAF})")
         if leaf[0]:
             out = np.zeros((4 + 3 * n_tris + 1, 4), np.uint32)
-            recs = out[4:4 + 3 * n_tris].reshape(n_tris, 3, 4)
-            recs[:, :, :3] = tris.view(np.uint32)
-            recs[:, 0, 3] = np.arange(n_tris, dtype=np.uint32)
+            out[4:4 + 3 * n_tris] = _triangle_records(tris)
             out[0, :3], out[1, :3] = nodes[0, 0:3], nodes[0, 4:7]
             out[0, 3] = 4 | (n_tris << GPU_COUNT_SHIFT) if n_tris else 0
             out[2, :3] = np.full(3, np.inf, np.float32).view(np.uint32)   # empty box
@@ -332,6 +332,12 @@ class BVH:
         return float((area * price).sum() / area[0])
 
 
+def _triangle_records(tris: np.ndarray) -> np.ndarray:
+    """(3 F, 4) triangle records of BVH.gpu_nodes: (v0 bits, j), (v1 bits, 0), (v2 bits, 0); the
+    layout of pack_triangles with the triangle's index where it has the material."""
+    return pack_triangles(tris, np.arange(len(tris), dtype=np.uint32))
+
+
 def _depth_first(nodes: np.ndarray, leaf: np.ndarray, counts: np.ndarray, leaf_first: np.ndarray,
                  tris: np.ndarray) -> np.ndarray:
     """BVH.gpu_nodes' buffer of a tree with an interior root: a 4-texel record per interior node
@@ -344,9 +350,8 @@ def _depth_first(nodes: np.ndarray, leaf: np.ndarray, counts: np.ndarray, leaf_f
         raise ValueError(f"{total} texels do not fit the 28-bit references of the traversal")
     out = np.zeros((total, 4), np.uint32)
     # Each job builds one record kind contiguous, then scatters it into its own texels of
-    # ``out``, a texel moved as one 16-byte item (3x faster than numpy's row-wise fancy
-    # assignment); the two jobs run on the thread pool (mcpt/parallel.py).
-    texel = out.view("V16").reshape(-1)
+    # ``out`` as whole 16-byte texels (mcpt/shapes/rows.py); the two jobs run on the thread pool
+    # (mcpt/parallel.py).
 
     def triangles():
         leaves = np.flatnonzero(leaf)
@@ -354,21 +359,18 @@ def _depth_first(nodes: np.ndarray, leaf: np.ndarray, counts: np.ndarray, leaf_f
         within = np.arange(int(lc.sum())) - np.repeat(np.cumsum(lc) - lc, lc)
         at = np.empty(len(within), np.int64)  # triangle j's record
         at[np.repeat(leaf_first[leaves], lc) + within] = np.repeat(addr[leaves], lc) + 3 * within
-        recs = np.zeros((len(tris), 3, 4), np.uint32)  # (v0 bits, j), (v1 bits, 0), (v2 bits, 0)
-        recs[:, :, :3] = tris.view(np.uint32)
-        recs[:, 0, 3] = np.arange(len(tris), dtype=np.uint32)
-        texel[(at[:, None] + np.arange(3)).ravel()] = recs.view("V16").reshape(-1)
+        put_rows(out, (at[:, None] + np.arange(3)).ravel(), _triangle_records(tris))
 
     def interior_nodes():
         interior = np.flatnonzero(~leaf)
         recs = np.empty((interior.size, 4, 4), np.uint32)
-        halves = nodes.view("V16").reshape(-1)  # node i's (bmin, a) and (bmax, b) at 2i, 2i + 1
+        halves = nodes.reshape(-1, 4)  # node i's (bmin, a) and (bmax, b) at rows 2i, 2i + 1
         for slot, child in ((0, interior + 1), (2, nodes[interior, 3].astype(np.int64))):
-            recs.view("V16")[:, slot, 0] = halves[2 * child]
-            recs.view("V16")[:, slot + 1, 0] = halves[2 * child + 1]
+            recs[:, slot] = take_rows(halves, 2 * child)
+            recs[:, slot + 1] = take_rows(halves, 2 * child + 1)
             recs[:, slot, 3] = (addr[child] | (counts[child] << GPU_COUNT_SHIFT)).astype(np.uint32)
             recs[:, slot + 1, 3] = 0
-        texel[(addr[interior][:, None] + np.arange(4)).ravel()] = recs.view("V16").reshape(-1)
+        put_rows(out, (addr[interior][:, None] + np.arange(4)).ravel(), recs.reshape(-1, 4))
 
     ordered(lambda job: job(), (triangles, interior_nodes))
     return out

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..parallel import ordered
 from .bvh import LEAF_FLAG
+from .rows import put_rows
 
 
 @dataclass
@@ -101,6 +102,5 @@ def flatten(levels: list[Level], order: np.ndarray, tri_lo: np.ndarray, tri_hi: 
     packed[:, 4:7] = hi.view(np.uint32)
     packed[:, 7] = np.where(leaf, count | LEAF_FLAG, axis)
     nodes = np.empty_like(packed)
-    # Each row moved as one 32-byte item: ~3x faster than numpy's row-wise fancy assignment.
-    nodes.view("V32").reshape(-1)[pre] = packed.view("V32").reshape(-1)
+    put_rows(nodes, pre, packed)  # whole 32-byte rows (mcpt/shapes/rows.py)
     return nodes
