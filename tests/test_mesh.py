@@ -152,6 +152,28 @@ f 1 1 3
     assert any("degen.obj" in r.getMessage() and "2 degenerate" in r.getMessage() for r in caplog.records)
 
 
+def test_degenerate_and_repeated_triangles_together(tmp_path):
+    """Both found side by side (mesh.assemble): the repeats among the triangles that stay, the
+    first of each kept, in file order (a degenerate triangle repeated is dropped as degenerate)."""
+    obj = write(tmp_path / "both.obj", """
+v 0 0 0
+v 1 0 0
+v 0 1 0
+v 2 0 0
+v 0 0 1
+f 1 1 3
+f 2 3 1
+f 1 2 4
+f 1 2 3
+f 1 1 3
+f 1 2 5
+f 3 1 2
+""")
+    mesh = load_mesh(obj)
+    assert (mesh.dropped_degenerate, mesh.dropped_duplicate) == (3, 2)
+    assert mesh.faces.tolist() == [[2, 1, 0], [0, 2, 4]]  # vertices numbered by first use
+
+
 def test_only_degenerate_triangles_is_an_error(tmp_path):
     obj = write(tmp_path / "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
     with pytest.raises(MeshError, match="flat.obj.*no triangles"):

@@ -153,6 +153,29 @@ def test_a_tiny_near_pair_goes_to_assimp_but_a_far_one_does_not(tmp_path):
         assert (read_obj_fast(path, path.read_bytes()) is not None) is fast
 
 
+@pytest.mark.parametrize("dims", [2, 3])
+def test_the_join_check_finds_every_near_pair(dims):
+    """_near_pairs (four shifted grids) against brute force: every table holding two rows within
+    JOIN_EPSILON is reported, in every direction and at every offset against the grids' cells;
+    tables whose rows are all farther apart than a few cells are not."""
+    rng = np.random.default_rng(7)
+    eps = obj_fast.JOIN_EPSILON
+    for trial in range(300):
+        base = rng.uniform(-2.0, 2.0, (40, dims)).astype(np.float32)
+        if trial % 3:
+            # A second row within eps (or just past it) of a first one, in a random direction.
+            d = rng.normal(size=dims)
+            d *= rng.uniform(0.05, 1.3) * eps / np.linalg.norm(d)
+            base[1] = (base[0].astype(np.float64) + d).astype(np.float32)
+        rows = np.unique(base, axis=0)
+        diff = rows[:, None, :].astype(np.float64) - rows[None, :, :]
+        dist2 = np.einsum("ijk,ijk->ij", diff, diff) + np.eye(len(rows))
+        if (dist2 <= eps**2).any():
+            assert obj_fast._near_pairs(rows), rows
+        elif dist2.min() > (10 * eps) ** 2:
+            assert not obj_fast._near_pairs(rows), rows
+
+
 def _random_obj(rng: np.random.Generator) -> str:
     """A small OBJ in the subset, with numbers written many ways (digits, signs, exponents, CRLF)."""
     def num() -> str:
