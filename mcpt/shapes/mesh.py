@@ -283,7 +283,8 @@ def _merge(raw: RawMesh, need_normals: bool, need_uvs: bool):
         bad_vertices = 0 if np.isfinite(part.vertices).all() else int((~np.isfinite(part.vertices).all(axis=1)).sum())
         if bad_vertices:
             raise MeshError(f"{path}: {part.label}: {bad_vertices} of {nv} vertices are not finite (NaN or inf)")
-        out_of_range = 0 if tri.size == 0 or (tri.min() >= 0 and tri.max() < nv) else int(((tri < 0) | (tri >= nv)).sum())
+        in_range = tri.size == 0 or (tri.min() >= 0 and tri.max() < nv)
+        out_of_range = 0 if in_range else int(((tri < 0) | (tri >= nv)).sum())
         if out_of_range:
             raise MeshError(
                 f"{path}: {part.label}: {out_of_range} vertex indices out of range [0, {nv}) "
