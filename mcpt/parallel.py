@@ -69,3 +69,14 @@ def ordered(fn: Callable, items: Iterable) -> list:
     finally:
         for f in futures:
             f.cancel()
+
+
+#: Fewer rows than this are one chunk (a thread's hand-off costs more than it saves).
+MIN_CHUNK_ROWS = 1 << 16
+
+
+def row_chunks(n: int, min_rows: int = MIN_CHUNK_ROWS) -> list[slice]:
+    """``n`` rows cut into one slice per thread (one slice below ``2 * min_rows`` rows): for work
+    done row by row, whose result does not depend on where the rows are cut."""
+    parts = max(1, min(workers(), n // min_rows))
+    return [slice(n * i // parts, n * (i + 1) // parts) for i in range(parts)]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mcpt.shapes import assimp_file, obj_fast
+from mcpt.shapes import assimp_file, obj_fast, obj_join
 from mcpt.shapes.obj_fast import read_obj_fast
 
 from .conftest import CORNELL
@@ -64,7 +64,7 @@ NUMBERS = ["1.3", "-0.5", "0.5", "1.", "+2.25", "123456789.123456789012345678", 
 def test_numbers_parse_as_assimp_parses_them(tmp_path, monkeypatch):
     """fast_atoreal_move<float> is not a correctly rounded parse: its float32 sums and powf
     exponents are reproduced (every token here lands on a different vertex row). Coordinates past
-    ~2.5e13 are left to Assimp by the join check (obj_fast._near_pairs), so stop there."""
+    ~2.5e13 are left to Assimp by the join check (obj_join._near_pairs), so stop there."""
     rows = [f"v {x} {i}.25 {-i}" for i, x in enumerate(NUMBERS)]
     rows += [f"v 1 {i}e-{i} {i}.5" for i in range(1, 46)] + [f"v 2 3.{i}e{i} {i}.75" for i in range(0, 13)]
     n = len(rows)
@@ -159,7 +159,7 @@ def test_the_join_check_finds_every_near_pair(dims):
     JOIN_EPSILON is reported, in every direction and at every offset against the grids' cells;
     tables whose rows are all farther apart than a few cells are not."""
     rng = np.random.default_rng(7)
-    eps = obj_fast.JOIN_EPSILON
+    eps = obj_join.JOIN_EPSILON
     for trial in range(300):
         base = rng.uniform(-2.0, 2.0, (40, dims)).astype(np.float32)
         if trial % 3:
@@ -171,9 +171,9 @@ def test_the_join_check_finds_every_near_pair(dims):
         diff = rows[:, None, :].astype(np.float64) - rows[None, :, :]
         dist2 = np.einsum("ijk,ijk->ij", diff, diff) + np.eye(len(rows))
         if (dist2 <= eps**2).any():
-            assert obj_fast._near_pairs(rows), rows
+            assert obj_join._near_pairs(rows), rows
         elif dist2.min() > (10 * eps) ** 2:
-            assert not obj_fast._near_pairs(rows), rows
+            assert not obj_join._near_pairs(rows), rows
 
 
 def _random_obj(rng: np.random.Generator) -> str:

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..parallel import ordered
+from ..parallel import ordered, row_chunks
 from .geometry import pack_triangles
 from .rows import put_rows, take_rows
 
@@ -186,9 +186,14 @@ class BVH:
         root_lo, root_hi = self.bounds_min[0].astype(np.float64), self.bounds_max[0].astype(np.float64)
         finite = np.isfinite(root_lo).all() and np.isfinite(root_hi).all()
         extent = float(np.max(root_hi - root_lo)) if finite and self.num_triangles else 0.0
-        lo, hi = grown_boxes(self.bounds_min, self.bounds_max, max(extent, 1e-30))
-        out[:, 0:3] = lo.view(np.uint32)
-        out[:, 4:7] = hi.view(np.uint32)
+        bmin, bmax = self.bounds_min, self.bounds_max
+
+        def grow(rows: slice) -> None:  # box by box: the rows cut into a chunk per core (issue #23)
+            lo, hi = grown_boxes(bmin[rows], bmax[rows], max(extent, 1e-30))
+            out[rows, 0:3] = lo.view(np.uint32)
+            out[rows, 4:7] = hi.view(np.uint32)
+
+        ordered(grow, row_chunks(len(out)))
         return out
 
     def gpu_nodes(self, tris_reordered: np.ndarray, dense: bool = False) -> np.ndarray:

@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from ..parallel import ordered
+from ..parallel import ordered, row_chunks
 from .bvh import BVH, DEFAULT_MAX_LEAF, LEAF_FLAG, MAX_STACK, SAH_MAX_TRIANGLES, SAH_STEP_COST, SAH_TRI_COST
 from .bvh_flatten import Level, flatten
 from .bvh_median import median_levels
@@ -49,14 +49,8 @@ def build_bvh(tri_vertices: np.ndarray, max_leaf: int = DEFAULT_MAX_LEAF, sah: b
     """
     t_start = time.perf_counter()
     tris, max_leaf = _checked(tri_vertices, max_leaf)
-    lo, hi = _corner_bounds(tris)
-    centroids = _centroids(tris)
+    lo, hi, centroids, diag = _boxes(tris)
     if len(tris) > 2 * max_leaf:
-        # |hi - lo| summed by hand: the same values as np.linalg.norm(axis=1) (x0^2 + x1^2 + x2^2
-        # in that order), ~3x faster than its reduction over rows of 3.
-        d = hi.astype(np.float64) - lo
-        d *= d
-        diag = np.sqrt(d[:, 0] + d[:, 1] + d[:, 2])
         large = diag > LARGE_TRIANGLE_FACTOR * np.median(diag)
         if large.any() and not large.all():
             # The subtrees need only the triangles' centroids and boxes: no (F, 3, 3) copy.
@@ -137,6 +131,28 @@ def _checked(tri_vertices: np.ndarray, max_leaf: int) -> tuple[np.ndarray, int]:
         bad = int((~np.isfinite(tris).all(axis=(1, 2))).sum())
         raise ValueError(f"{bad} triangles have non-finite coordinates")
     return tris, int(max_leaf)
+
+
+def _boxes(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(lo, hi, centroids, diag): every triangle's box corners (`_corner_bounds`), centroid
+    (`_centroids`) and box diagonal (float64). Row by row, so the rows are cut into one chunk per
+    core (issue #23: 0.2 s in one thread at 10^6 triangles), each written in place."""
+    n = len(tris)
+    lo, hi = np.empty((n, 3), tris.dtype), np.empty((n, 3), tris.dtype)
+    centroids, diag = np.empty((n, 3)), np.empty(n)
+
+    def fill(rows: slice) -> None:
+        t = tris[rows]
+        lo[rows], hi[rows] = _corner_bounds(t)
+        centroids[rows] = _centroids(t)
+        # |hi - lo| summed by hand: the same values as np.linalg.norm(axis=1) (x0^2 + x1^2 + x2^2
+        # in that order), ~3x faster than its reduction over rows of 3.
+        d = hi[rows].astype(np.float64) - lo[rows]
+        d *= d
+        np.sqrt(d[:, 0] + d[:, 1] + d[:, 2], out=diag[rows])
+
+    ordered(fill, row_chunks(n))
+    return lo, hi, centroids, diag
 
 
 def _corner_bounds(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..parallel import ordered, row_chunks
+
 # splitmix64's finaliser constants (Steele, Lea & Flood 2014): every input bit reaches every output bit.
 _MIX1, _MIX2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
 _PRIME = np.uint64(0x100000001B3)  # FNV-1a's 64-bit prime: the per-word step of the row hash
@@ -87,10 +89,15 @@ def _corner_sum_key(w: np.ndarray) -> np.ndarray:
     sum over the corners of each corner's mixed words (sums of the raw words meet structurally
     on lattices, where float bits are affine in the value within a binade)."""
     key = np.zeros(len(w), np.uint64)
-    with np.errstate(over="ignore"):
-        for c in range(3):
-            h = _mixed(w[:, c, 0].astype(np.uint64) << np.uint64(32) | w[:, c, 1])
-            key += _mixed(h ^ w[:, c, 2])
+
+    def fill(rows: slice) -> None:  # triangle by triangle: a chunk per core (issue #23)
+        part = key[rows]
+        with np.errstate(over="ignore"):
+            for c in range(3):
+                h = _mixed(w[rows, c, 0].astype(np.uint64) << np.uint64(32) | w[rows, c, 1])
+                part += _mixed(h ^ w[rows, c, 2])
+
+    ordered(fill, row_chunks(len(w)))
     return key
 
 

@@ -10,10 +10,8 @@ indices, NaN, commas, line continuations, ...) returns None and Assimp reads the
 What Assimp 5.4 makes of such a file (code/AssetLib/Obj, code/PostProcessing/JoinVerticesProcess.cpp):
 one mesh ``defaultobject`` with the invented material ``DefaultMaterial``; its vertices are the
 face corners, joined where position, normal and UV agree within 1e-5 (the first corner's values
-kept), numbered in order of first use. Two *different* values within 1e-5 are joined only when
-their hashes meet in a bucket of Assimp's hash map, which cannot be predicted here: such a file
-(:func:`_near_pairs`) goes to Assimp. Otherwise the join is an exact one (-0.0 = 0.0), done on
-the file's index tables. Numbers are parsed as Assimp parses them (obj_numbers.py).
+kept), numbered in order of first use (obj_join.py, which sends a file whose join it cannot
+predict to Assimp). Numbers are parsed as Assimp parses them (obj_numbers.py).
 """
 
 from __future__ import annotations
@@ -23,17 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from ..parallel import ordered
-from .dedup import first_equal
-from .obj_numbers import PAD, Unsupported, assimp_floats, digit_values, token_bounds
-from .raw_mesh import MeshMaterial, RawMesh, RawPart
-from .rows import take_rows
+from .obj_join import joined
+from .obj_numbers import PAD, SKIP, VN, VT, F, Unsupported, V, assimp_floats, digit_values, token_bounds
+from .raw_mesh import RawMesh
 
-#: Assimp's vertex-join tolerance (JoinVerticesProcess.cpp, ``epsilon``), widened a little so that
-#: float32 rounding in Assimp's own test can never join a pair this check lets through.
-JOIN_EPSILON = 1.1e-5
-#: Shifted grids of the join check (_near_pairs): more than the 3 axes of a table.
-_GRIDS = 4
-_V, _VT, _VN, _F, _SKIP = range(5)
 #: Separators Assimp's OBJ parser skips, and ``/`` between a corner's indices: all become spaces.
 _TO_SPACE = bytes.maketrans(b"\t\r\n/", b"    ")
 _NUMBER_BYTES = b"0123456789.-+eE "
@@ -74,17 +65,17 @@ def _read(path: Path, data: bytes, need_normals: bool) -> RawMesh:
     if len(scan.uv_dims) > 1:
         raise Unsupported("texture coordinate dimension")
     uv_dim = max(scan.uv_dims, default=0)
-    tables = {k: np.concatenate(scan.floats[k]).reshape(-1, 3 if k != _VT else max(uv_dim, 1))
-              for k in (_V, _VT, _VN)}
+    tables = {k: np.concatenate(scan.floats[k]).reshape(-1, 3 if k != VT else max(uv_dim, 1))
+              for k in (V, VT, VN)}
     if uv_dim == 2:  # Assimp stores 2-D texture coordinates with z = 0
-        tables[_VT] = np.column_stack([tables[_VT], np.zeros(len(tables[_VT]), np.float32)])
+        tables[VT] = np.column_stack([tables[VT], np.zeros(len(tables[VT]), np.float32)])
     corners = np.concatenate(scan.faces).reshape(-1, len(fields))
     for j, f in enumerate(fields):
         if (corners[:, j] < 0).any() or (corners[:, j] >= len(tables[f])).any():
             raise Unsupported("face index out of range")  # Assimp reports it (obj.bad_face)
     sizes = np.concatenate(scan.sizes)
-    tri = None if (sizes == 3).all() else _triangulated(corners[:, 0], sizes, tables[_V])
-    return _joined(path, corners, fields, tables, need_normals, tri)
+    tri = None if (sizes == 3).all() else _triangulated(corners[:, 0], sizes, tables[V])
+    return joined(path, corners, fields, tables, need_normals, tri)
 
 
 def _triangulated(vertex: np.ndarray, sizes: np.ndarray, positions: np.ndarray) -> np.ndarray:
@@ -134,7 +125,7 @@ class _Scan:
     def __init__(self, fields: tuple[int, ...] | None) -> None:
         self.fields = fields
         self.uv_dims: set[int] = set()
-        self.floats: dict[int, list[np.ndarray]] = {_V: [], _VT: [], _VN: []}
+        self.floats: dict[int, list[np.ndarray]] = {V: [], VT: [], VN: []}
         self.faces: list[np.ndarray] = []
         self.sizes: list[np.ndarray] = []  # corners of every face (3 or 4)
 
@@ -142,7 +133,7 @@ class _Scan:
         """Append the next block's :func:`_block` result."""
         self.uv_dims |= block["uv_dims"]
         self.sizes.append(block["sizes"])
-        for k in (_V, _VT, _VN):
+        for k in (V, VT, VN):
             if k in block:
                 self.floats[k].append(block[k])
         if block["faces"] is not None:
@@ -185,9 +176,9 @@ def _block(data: bytes, fields: tuple[int, ...] | None) -> dict:
     tok_a, tok_z = token_bounds(text)
     counts = np.diff(np.append(np.searchsorted(tok_a, starts), len(tok_a)))
     out: dict = {"uv_dims": _check_counts(counts, kind, len(fields or ())),
-                 "sizes": counts[kind == _F] // max(len(fields or ()), 1), "faces": None}
+                 "sizes": counts[kind == F] // max(len(fields or ()), 1), "faces": None}
     tok_kind = np.repeat(kind, counts)
-    is_float = tok_kind != _F
+    is_float = tok_kind != F
     if is_float.any():
         fa, fz = tok_a[is_float], tok_z[is_float]
         lead = text[fa]
@@ -199,7 +190,7 @@ def _block(data: bytes, fields: tuple[int, ...] | None) -> dict:
             raise Unsupported("'/' in a v/vt/vn line")  # one word to Assimp, two numbers here
         values = assimp_floats(text, fa, fz)
         of_kind = tok_kind[is_float]
-        for k in (_V, _VT, _VN):
+        for k in (V, VT, VN):
             out[k] = values[of_kind == k]
     if not is_float.all():
         out["faces"] = _face_indices(raw, text, tok_a[~is_float], tok_z[~is_float], fields)
@@ -221,12 +212,12 @@ def _lines(raw: np.ndarray):
     space1, space2 = (c1 == 32) | (c1 == 9), (c2 == 32) | (c2 == 9)
     v = c0 == ord("v")
     kind = np.full(len(starts), -1, np.int8)
-    kind[v & space1] = _V
-    kind[v & (c1 == ord("t")) & space2] = _VT
-    kind[v & (c1 == ord("n")) & space2] = _VN
-    kind[(c0 == ord("f")) & space1] = _F
+    kind[v & space1] = V
+    kind[v & (c1 == ord("t")) & space2] = VT
+    kind[v & (c1 == ord("n")) & space2] = VN
+    kind[(c0 == ord("f")) & space1] = F
     blank = (length == 0) | ((length == 1) & (c0 == 13))
-    kind[blank | (c0 == ord("#")) | ((c0 == ord("s")) & space1)] = _SKIP
+    kind[blank | (c0 == ord("#")) | ((c0 == ord("s")) & space1)] = SKIP
     if (kind < 0).any():
         raise Unsupported("a statement outside v/vt/vn/f/s/#")
     return starts, ends, kind
@@ -239,10 +230,10 @@ def _numbers_only(data: bytes, starts, ends, kind) -> np.ndarray:
     buf = bytearray(data.translate(_TO_SPACE))
     buf += b" " * PAD
     text = np.frombuffer(buf, np.uint8)
-    text[starts[kind != _SKIP]] = 32
-    two = starts[(kind == _VT) | (kind == _VN)]
+    text[starts[kind != SKIP]] = 32
+    two = starts[(kind == VT) | (kind == VN)]
     text[two + 1] = 32
-    skip = (kind == _SKIP) & (ends > starts)
+    skip = (kind == SKIP) & (ends > starts)
     if skip.any():
         a, n = starts[skip], (ends - starts)[skip]
         offsets = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
@@ -253,14 +244,14 @@ def _numbers_only(data: bytes, starts, ends, kind) -> np.ndarray:
 
 
 def _face_form(line: bytes, vt_seen: bool) -> tuple[int, ...]:
-    """Which tables a corner indexes, from the first face ``line``: (_V,), (_V, _VT), (_V, _VN)
+    """Which tables a corner indexes, from the first face ``line``: (V,), (V, VT), (V, VN)
     or all three (every face is checked against it in _face_indices). ``vt_seen``: a vt line came
     before it."""
     words = line.split()
     if len(words) < 2:
         raise Unsupported("a face without corners")
     corner = words[1].split(b"/")
-    form = {(1,): (_V,), (1, 1): (_V, _VT), (1, 0, 1): (_V, _VN), (1, 1, 1): (_V, _VT, _VN)}
+    form = {(1,): (V,), (1, 1): (V, VT), (1, 0, 1): (V, VN), (1, 1, 1): (V, VT, VN)}
     key = tuple(int(bool(c)) for c in corner)
     if key not in form:
         raise Unsupported("face corner form")
@@ -272,13 +263,13 @@ def _face_form(line: bytes, vt_seen: bool) -> tuple[int, ...]:
 
 def _check_counts(counts, kind, n_fields: int) -> set[int]:
     """Checks that v/vn lines hold 3 numbers, f lines 3 or 4 corners; returns the vt dimensions."""
-    for k, n in ((_V, 3), (_VN, 3), (_SKIP, 0)):
+    for k, n in ((V, 3), (VN, 3), (SKIP, 0)):
         if (counts[kind == k] != n).any():
             raise Unsupported("numbers per line")
-    face = counts[kind == _F]
+    face = counts[kind == F]
     if ((face != 3 * n_fields) & (face != 4 * n_fields)).any():
         raise Unsupported("a face of other than 3 or 4 corners")
-    uv = {int(d) for d in np.unique(counts[kind == _VT])}
+    uv = {int(d) for d in np.unique(counts[kind == VT])}
     if not uv <= {2, 3}:
         raise Unsupported("texture coordinate dimension")
     return uv
@@ -293,112 +284,10 @@ def _face_indices(raw, text, a, z, fields) -> np.ndarray:
     slash = ord("/")
     if (after[:, :-1] != slash).any() or (after[:, -1] == slash).any():
         raise Unsupported("face corner form")
-    if fields == (_V, _VN):
+    if fields == (V, VN):
         if (raw[np.minimum(z.reshape(-1, k)[:, 0] + 1, len(raw) - 1)] != slash).any():
             raise Unsupported("face corner form")
     if (text[a] == ord("0")).any():
         # Assimp steps over an index by the digit count of its value: "07" is read as 7 twice.
         raise Unsupported("a face index with a leading zero")
     return digit_values(text, a, z) - 1
-
-
-def _first_equal_rows(table: np.ndarray) -> np.ndarray | None:
-    """For every row of a float32 table, the index of the first row equal to it as floats
-    (-0.0 equals 0.0: libstdc++ hashes both to 0, so Assimp joins them; _joined keeps the bits
-    of the corner that uses the value first, as Assimp does); None when every row is its own
-    first (no two rows equal: the usual case). Raises Unsupported for a pair of near rows
-    (:func:`_near_pairs`)."""
-    canon = table + np.float32(0.0)  # -0.0 + 0.0 = +0.0
-    ids = first_equal(np.ascontiguousarray(canon).view(np.uint32))
-    if ids is None:
-        raise Unsupported("hash collision")  # different rows, one 64-bit hash: let Assimp join
-    distinct = ids == np.arange(len(ids))
-    if _near_pairs(table if distinct.all() else table[distinct]):
-        raise Unsupported("values within Assimp's join tolerance")
-    return None if distinct.all() else ids
-
-
-def _near_pairs(rows: np.ndarray) -> bool:
-    """Whether two distinct rows may lie within JOIN_EPSILON of each other (conservative: a
-    "may" sends the file to Assimp). Each axis is cut into steps of u = 1.25 JOIN_EPSILON
-    (q = floor(value / u)); grid i (i = 0..3) groups 4 steps per cell, shifted by i steps. Two
-    values within JOIN_EPSILON < u lie in the same or neighbouring steps, and a step boundary is
-    a cell boundary of exactly one grid, so along each of the k <= 3 axes a near pair is split by
-    one grid at most: of the 4 grids at least one holds it in one cell (the shifting lemma
-    of Chan 1998, "Approximate nearest neighbor queries revisited"; 2^k grids of two shifts
-    each, as before, cost twice the sorts: 0.11 s at 5 * 10^5 rows, issue #23). Each grid's
-    cells are hashed to one int64 and sorted; a cell holding two rows is decided by their
-    distance, one holding more counts as "may"."""
-    m, k = rows.shape
-    if m < 2:
-        return False
-    if k >= _GRIDS:
-        return True  # not a v, vt or vn table: the grids would not cover every axis
-    r = rows.astype(np.float64)
-    with np.errstate(over="ignore", invalid="ignore"):
-        step = np.floor(r * (1.0 / (1.25 * JOIN_EPSILON)))
-    if not np.isfinite(step).all() or np.abs(step).max() > 2.0**60:
-        return True
-    step = step.astype(np.int64)
-    mult = (1, 0x9E3779B1, 0x85EBCA77)[:k]
-    cols = [np.ascontiguousarray(step[:, ax]) for ax in range(k)]
-
-    def near_in_grid(shift: int) -> bool:
-        # The cell's hash: sum over the axes of ((q + shift) >> 2) * multiplier (cells of 4
-        # steps), in place (new temporaries cost page faults).
-        key = cols[0] + shift
-        key >>= 2
-        tmp = np.empty_like(key)
-        for ax in range(1, k):
-            np.add(cols[ax], shift, out=tmp)
-            tmp >>= 2
-            tmp *= mult[ax]
-            key += tmp
-        s = np.sort(key)
-        same = s[1:] == s[:-1]
-        if not same.any():
-            return False
-        if (same[1:] & same[:-1]).any():
-            return True  # three rows in one cell (or a hash clash): let Assimp decide
-        order = np.argsort(key, kind="stable")
-        i = np.flatnonzero(key[order][1:] == key[order][:-1])
-        diff = r[order[i]] - r[order[i + 1]]
-        return bool((np.einsum("ij,ij->i", diff, diff) <= JOIN_EPSILON**2).any())
-
-    # The grids are independent (a sort each: ~0.01 s at 5 * 10^5 rows): on every core.
-    return any(ordered(near_in_grid, range(_GRIDS)))
-
-
-def _joined(path, corners, fields, tables, need_normals, tri=None) -> RawMesh:
-    """Assimp's one mesh: corners joined where all their values are equal, numbered in file
-    order of first use; ``tri``: (T, 3) corner numbers of the triangles (None: corners 3 by 3)."""
-    n = len(corners)
-    key = np.zeros(n, np.int64)
-    span = 1
-    for j, f in enumerate(fields):
-        ids = _first_equal_rows(tables[f])
-        if span * len(tables[f]) >= 2**62:
-            raise Unsupported("index tables too large to combine")
-        # No equal rows: every index is its own row's (a gather of 3 * 10^6 indices saved).
-        key += (corners[:, j] if ids is None else ids[corners[:, j]]) * span
-        span *= len(tables[f])
-    first = np.full(int(key.max()) + 1, n, np.int64)
-    np.minimum.at(first, key, np.arange(n))
-    used = np.flatnonzero(first < n)
-    vert_keys = used[np.argsort(first[used], kind="stable")]  # runs of first uses: timsort's best case
-    remap = np.empty(len(first), np.int64)
-    remap[vert_keys] = np.arange(len(vert_keys))
-    rep = take_rows(corners, first[vert_keys])  # the corner that first uses each vertex: its values are kept
-    col = dict(zip(fields, rep.T))
-    normals = None
-    if need_normals and _VN in col:
-        normals = take_rows(tables[_VN], col[_VN]).astype(np.float64)
-    uvs = None
-    if _VT in col:
-        uvs = take_rows(tables[_VT], col[_VT])[:, :2].astype(np.float64)
-    part = RawPart(label="sub-mesh #0 'defaultobject'", vertices=take_rows(tables[_V], col[_V]).astype(np.float64),
-                   indices=remap[key] if tri is None else remap[key][tri].ravel(), material=0,
-                   normals=normals, uvs=uvs)
-    # Assimp invents "DefaultMaterial" for faces without usemtl (assimp_file._materials gives it
-    # no colour: nothing came from a file).
-    return RawMesh(path, [part], [MeshMaterial(name="DefaultMaterial")])

@@ -31,6 +31,10 @@ _POW10 = 10 ** np.arange(19, dtype=np.int64)
 _DOT, _E, _LOWER_E, _MINUS, _PLUS = ord("."), ord("E"), ord("e"), ord("-"), ord("+")
 
 
+#: Kinds of line: the tables numbers go to (v, vt, vn), faces, and lines that hold no numbers.
+V, VT, VN, F, SKIP = range(5)
+
+
 class Unsupported(Exception):
     """The tokens hold something this module does not parse exactly as Assimp: use Assimp."""
 
