@@ -213,6 +213,35 @@ def test_files_read_in_blocks_match_assimp(tmp_path, monkeypatch, block):
             assert_same(fast, assimp_only(path, False, monkeypatch))
 
 
+@pytest.mark.parametrize("faces, taken", [
+    ("f 1 2 3\nf\t2 3 4\nf 1  2 4 \nf 4 3 2 1\nf 10 11 12\n", True),  # tabs, runs of spaces, a quad
+    ("f 1 2 3\r\nf 2 3 4\r\nf 4 3 2 1\r\n", True),                    # CRLF
+    ("f 1 2 3\nf 1 02 3\n", False),                                  # a leading zero: Assimp's quirk
+    ("f 1 2 3\nf 1 0 3\n", False),                                   # index 0
+    ("f 1 2 3\nf 1 1f 3\n", False),                                  # an f inside a line ("10" if read as 0)
+    ("f 1 2 3\nf 1 2\n", False),                                     # two corners
+    ("f 1 2 3\nf 1 2 3 4 5\n", False),                               # a pentagon
+    ("f 1 2 3\nf 1 2 3 # c\n", False),                               # a comment after a face
+])
+def test_blocks_of_v_faces_match_assimp(tmp_path, monkeypatch, faces, taken):
+    """Blocks made only of ``v``-form face lines are read by numpy's integer parser in one call
+    (obj_fast._v_faces): the same result as the general path and Assimp, or left to Assimp where
+    the general path leaves them."""
+    monkeypatch.setattr(obj_fast, "BLOCK_BYTES", 8)  # a block a line: the faces' blocks hold faces only
+    used = []
+    real = obj_fast._v_faces
+    monkeypatch.setattr(obj_fast, "_v_faces", lambda *a: used.append(real(*a)) or used[-1])
+    path = tmp_path / "faces.obj"
+    pts = np.random.default_rng(5).normal(size=(12, 3)).round(3)
+    verts = "".join(f"v {x} {y} {z}\n" for x, y, z in pts)
+    path.write_bytes((verts + faces).encode())
+    fast = read_obj_fast(path, path.read_bytes())
+    assert (fast is not None) is taken
+    if taken:
+        assert used and all(u is not None for u in used)
+        assert_same(fast, assimp_only(path, False, monkeypatch))
+
+
 def test_quads_are_fanned_from_their_concave_corner_as_assimp(tmp_path, monkeypatch):
     """Convex quads fan from corner 0; a concave (dart-shaped) quad from its reflex corner,
     wherever it sits in the face; triangles between them stay as they are."""
