@@ -220,6 +220,10 @@ def _v_faces(data: bytes, n_lines: int) -> dict | None:
     if text.count(b" 0") + 1 != n_lines:
         return None
     values = np.fromstring(text, np.int64, sep=" ")
+    if len(values) == 4 * n_lines:
+        rows = values.reshape(n_lines, 4)
+        if not rows[:, 0].any() and rows[:, 1:].all():  # all triangles: a zero, three indices
+            return {"uv_dims": set(), "sizes": np.full(n_lines, 3, np.int64), "faces": (rows[:, 1:] - 1).ravel()}
     line_at = np.flatnonzero(values == 0)
     corners = np.diff(np.append(line_at, len(values))) - 1
     if len(line_at) != n_lines or ((corners != 3) & (corners != 4)).any():

@@ -87,6 +87,8 @@ def _horner(d: np.ndarray) -> np.ndarray:
 def _one_per_token(positions: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
     """Token index of each position (sorted); raises Unsupported if a position lies outside the
     tokens (e.g. in a face index) or a token holds two."""
+    if len(positions) == len(starts) and (positions >= starts).all() and (positions < ends).all():
+        return np.arange(len(starts))  # one in every token (a dot in every number): no search
     tok = np.searchsorted(starts, positions, side="right") - 1
     if (tok < 0).any() or (positions >= ends[tok]).any():
         raise Unsupported("a dot or exponent outside the numbers")
@@ -131,15 +133,18 @@ def _mantissas(text, starts, a, dot, end) -> np.ndarray:
         if int(a.max()) + width > len(text):
             raise Unsupported("text not padded")
         d = np.lib.stride_tricks.sliding_window_view(text, width)[a] - np.uint8(48)
-        d[np.arange(width) >= length[:, None]] = 0  # the bytes after the mantissa
-        # Inside a mantissa the caller's checks leave digits and one dot: the dot is the byte
-        # past 9 here, and counts as a zero digit (the split below skips it).
-        d[d > 9] = 0
+        # Inside a mantissa the caller's checks leave digits and one dot: the dot is a byte past
+        # 9 here, and counts as a zero digit (the split below skips it). Bytes past the mantissa
+        # (an exponent, the next tokens) become digits or zeros too: the divisions by
+        # 10^(width - ...) below drop them, so they need no mask by position (issue #23: that
+        # mask and a masked assignment were a fifth of this function).
+        np.multiply(d, d <= 9, out=d)
         raw = _horner(d)
         split = _POW10[width - (int_end - a)]
         whole = raw // split
-        digits = (raw % split) // _POW10[width - length]
-        digits //= _POW10[frac_n - kept]  # digits past the 15th are skipped
+        digits = (raw - whole * split) // _POW10[width - length]  # raw % split, one division fewer
+        if (frac_n > kept).any():
+            digits //= _POW10[frac_n - kept]  # digits past the 15th are skipped
     frac = digits.astype(np.float64) * _FAST_ATOF_TABLE[kept]
     f = whole.astype(np.float32)
     return np.where(frac_n > 0, f + frac.astype(np.float32), f)  # float32 + float32, as Assimp adds
