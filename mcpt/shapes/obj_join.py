@@ -107,11 +107,15 @@ def joined(path, corners, fields, tables, need_normals, tri=None) -> RawMesh:
         span *= len(tables[f])
     first = np.full(int(key.max()) + 1, n, np.int64)
     np.minimum.at(first, key, np.arange(n))
-    used = np.flatnonzero(first < n)
-    vert_keys = used[np.argsort(first[used], kind="stable")]  # runs of first uses: timsort's best case
+    # The corners that first use a vertex, in file order: their keys are the vertices in order of
+    # first use (no sort of the first uses: 27 ms at 10^6 triangles, issue #23).
+    is_first = np.zeros(n, bool)
+    is_first[first[first < n]] = True
+    first_corner = np.flatnonzero(is_first)
+    vert_keys = key[first_corner]
     remap = np.empty(len(first), np.int64)
     remap[vert_keys] = np.arange(len(vert_keys))
-    rep = take_rows(corners, first[vert_keys])  # the corner that first uses each vertex: its values are kept
+    rep = take_rows(corners, first_corner)  # the corner that first uses each vertex: its values are kept
     col = dict(zip(fields, rep.T))
     normals = None
     if need_normals and VN in col:
