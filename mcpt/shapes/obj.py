@@ -162,11 +162,13 @@ class ObjFile:
         restored. If two different file vertices round to the same float32 vertex, Assimp has
         already merged them: precision is lost and a warning says so (a YAML ``transform`` keeps
         far-away meshes exact)."""
-        allv = np.concatenate([p.vertices for p in parts])
+        allv = parts[0].vertices if len(parts) == 1 else np.concatenate([p.vertices for p in parts])
         if allv.size == 0 or not np.isfinite(allv).all() or self.data is None:
             return
-        extent = float(np.max(allv.max(axis=0) - allv.min(axis=0)))
-        if float(np.abs(allv).max()) <= OBJ_FLOAT64_RATIO * max(extent, 1e-300):
+        # A column at a time: min/max over axis 0 of an (N, 3) array cost 5x more (issue #23).
+        lo, hi = [allv[:, k].min() for k in range(3)], [allv[:, k].max() for k in range(3)]
+        extent = float(max(b - a for a, b in zip(lo, hi)))
+        if max(-min(lo), max(hi)) <= OBJ_FLOAT64_RATIO * max(extent, 1e-300):
             return
         try:
             exact = np.array([[float(t) for t in m.groups()] for m in _OBJ_VERTEX.finditer(self.data)])
