@@ -45,3 +45,19 @@ def test_put_rows_equals_fancy_assignment():
         assert np.array_equal(got, want)
     with pytest.raises(ValueError):
         put_rows(np.zeros((4, 6), np.uint32)[:, ::2], np.array([0]), np.zeros((1, 3), np.uint32))
+
+
+def test_take_rows_into_out_equals_fancy_indexing():
+    """The ``out`` form: the same rows, into the given array (a slice of a larger one too);
+    negative indices, an index out of range and a wrong ``out`` behave as without it."""
+    rng = np.random.default_rng(9)
+    a = rng.normal(size=(50, 3)).astype(np.float32)
+    index = rng.integers(-50, 50, (40, 3))
+    big = np.zeros((60, 3, 3), np.float32)
+    got = take_rows(a, index, out=big[10:50])
+    assert got.base is not None and np.array_equal(big[10:50], a[index])
+    assert not big[:10].any() and not big[50:].any()
+    with pytest.raises(IndexError):
+        take_rows(a, np.array([[50, 0, 1]]), out=np.empty((1, 3, 3), np.float32))
+    with pytest.raises(ValueError):
+        take_rows(a, index, out=np.empty((40, 3, 3), np.float64))

@@ -18,13 +18,26 @@ def _as_items(a: np.ndarray) -> np.ndarray:
     return a.reshape(len(a), -1).view(np.dtype((np.void, row_bytes))).reshape(-1)
 
 
-def take_rows(a: np.ndarray, index: np.ndarray) -> np.ndarray:
-    """``a[index]`` for an integer array ``index`` (any shape), gathering rows of ``a`` whole."""
+def take_rows(a: np.ndarray, index: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``a[index]`` for an integer array ``index`` (any shape), gathering rows of ``a`` whole;
+    written into ``out`` (C-contiguous, of that shape and a's dtype) when given."""
     a = np.ascontiguousarray(a)
     if a.ndim < 2 or a.size == 0 or len(a) == 0:
-        return a[index]
+        if out is None:
+            return a[index]
+        out[...] = a[index]
+        return out
     index = np.asarray(index)
-    return np.take(_as_items(a), index).view(a.dtype).reshape(index.shape + a.shape[1:])
+    if out is None:
+        return np.take(_as_items(a), index).view(a.dtype).reshape(index.shape + a.shape[1:])
+    if not out.flags.c_contiguous or out.dtype != a.dtype or out.shape != index.shape + a.shape[1:]:
+        raise ValueError("take_rows writes into a C-contiguous array of the result's shape and dtype")
+    # mode="clip" writes straight into ``out`` (the default mode buffers it: a copy more), and is
+    # exact for indices already in range; others (negative, or an IndexError to raise) take it.
+    in_range = index.size == 0 or (index.min() >= 0 and index.max() < len(a))
+    np.take(_as_items(a), index.reshape(-1), out=_as_items(out.reshape((-1,) + a.shape[1:])),
+            mode="clip" if in_range else "raise")
+    return out
 
 
 def put_rows(out: np.ndarray, index: np.ndarray, rows: np.ndarray) -> None:
