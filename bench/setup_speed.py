@@ -46,13 +46,15 @@ from mcpt.gpu.render import Renderer
 from mcpt.scene import load_scene
 from mcpt.shapes.world import load_world
 from mcpt.shapes.world_cache import cached_world
+from mcpt.heap import setup_heap
 t0 = time.perf_counter(); gl = shared_context(None); t1 = time.perf_counter(); c1 = time.process_time()
-scene = load_scene(sys.argv[1])
-world = cached_world(scene, load_world)
-feats = for_world(world, loop_limit=loop_limit_for(gl.renderer))
-packed = cached_pack(world, feats, pack)
-t2 = time.perf_counter()
-renderer = Renderer(gl, feats, packed)
+with setup_heap():  # as mcpt.prepare.prepare sets up
+    scene = load_scene(sys.argv[1])
+    world = cached_world(scene, load_world)
+    feats = for_world(world, loop_limit=loop_limit_for(gl.renderer))
+    packed = cached_pack(world, feats, pack)
+    t2 = time.perf_counter()
+    renderer = Renderer(gl, feats, packed)
 t3 = time.perf_counter()
 print(json.dumps({"ctx": t1 - t0, "host": t2 - t1, "gl": t3 - t2, "total": t3 - t1, "cpu": time.process_time() - c1,
                   "cache": world.stats.get("cache"), "triangles": world.n_triangles}))

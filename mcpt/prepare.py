@@ -28,6 +28,7 @@ from .gpu.pack import pack
 from .gpu.pack_cache import cached_pack
 from .gpu.render import Renderer
 from .gpu.scene_size import check_scene_size
+from .heap import setup_heap
 from .output.layers import feature_flags as aov_flags
 from .scene import Scene, SceneError, load_scene
 from .shading.camera import check_camera
@@ -77,20 +78,21 @@ def prepare(scene: Scene | str | Path, *, spp=None, bounces=None, seed=None, res
     # while the header recorded the original): taken before and after reading them, and refused
     # when they changed in between.
     digest = scene_hash(scene)
-    world = cached_world(scene, load_world, cache)
-    if scene_hash(scene) != digest:
-        raise SceneError(str(scene.source_path or "<scene>"), None, "",
-                         "a file of the scene changed while it was read; render again")
-    check_camera(scene, world.tris)
-    flags = {"loop_limit": loop_limit_for(gl.renderer), **dispatch_flags(),
-             **aov_flags(aovs, False), **(feature_flags or {})}
-    if sampler is not None:
-        flags["sampler"] = sampler
-    feats = for_world(world, clamp=clamp is not None, **flags)
-    if features_mode == "all":
-        feats = feats.everything()
-    if feats.wavefront and (missing := wavefront.unsupported(feats)):
-        raise DispatchError(f"MCPT_DISPATCH=wavefront cannot render {missing}; use fragment or compute")
-    renderer = Renderer(gl, feats, cached_pack(world, feats, pack, cache), clamp=clamp)
+    with setup_heap():  # big temporaries reuse freed memory (mcpt/heap.py)
+        world = cached_world(scene, load_world, cache)
+        if scene_hash(scene) != digest:
+            raise SceneError(str(scene.source_path or "<scene>"), None, "",
+                             "a file of the scene changed while it was read; render again")
+        check_camera(scene, world.tris)
+        flags = {"loop_limit": loop_limit_for(gl.renderer), **dispatch_flags(),
+                 **aov_flags(aovs, False), **(feature_flags or {})}
+        if sampler is not None:
+            flags["sampler"] = sampler
+        feats = for_world(world, clamp=clamp is not None, **flags)
+        if features_mode == "all":
+            feats = feats.everything()
+        if feats.wavefront and (missing := wavefront.unsupported(feats)):
+            raise DispatchError(f"MCPT_DISPATCH=wavefront cannot render {missing}; use fragment or compute")
+        renderer = Renderer(gl, feats, cached_pack(world, feats, pack, cache), clamp=clamp)
     return Prepared(gl, scene, world, feats, renderer, time.perf_counter() - t0, features_mode,
                     clamp, tuple(aovs), tuple(overrides), gl_backend, digest)
