@@ -142,12 +142,18 @@ def _boxes(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     centroids, diag = np.empty((n, 3)), np.empty(n)
 
     def fill(rows: slice) -> None:
-        t = tris[rows]
-        lo[rows], hi[rows] = _corner_bounds(t)
-        centroids[rows] = _centroids(t)
+        # _corner_bounds and _centroids, the same operations in the same order, written in place.
+        t, lo_r, hi_r, c = tris[rows], lo[rows], hi[rows], centroids[rows]
+        np.minimum(np.minimum(t[:, 0], t[:, 1], out=lo_r), t[:, 2], out=lo_r)
+        np.maximum(np.maximum(t[:, 0], t[:, 1], out=hi_r), t[:, 2], out=hi_r)
+        c[...] = t[:, 0]
+        c += t[:, 1]
+        c += t[:, 2]
+        c /= 3.0
         # |hi - lo| summed by hand: the same values as np.linalg.norm(axis=1) (x0^2 + x1^2 + x2^2
         # in that order), ~3x faster than its reduction over rows of 3.
-        d = hi[rows].astype(np.float64) - lo[rows]
+        d = hi_r.astype(np.float64)
+        d -= lo_r
         d *= d
         np.sqrt(d[:, 0] + d[:, 1] + d[:, 2], out=diag[rows])
 
