@@ -123,8 +123,9 @@ def load_world(scene: Scene) -> World:
 
     tris, keep, repeated = _drop_repeated(np.concatenate([p.tris for p in parts]), len(parts))
     bvh = build_bvh(tris)
-    bvh.worst_sah_cost()  # the features ask for it (BVH.dense); now, so the set-up cache keeps it
-    tris = take_rows(tris, bvh.order)
+    # The worst subtree cost (the features ask for it: BVH.dense; now, so the set-up cache keeps
+    # it) and the triangles in BVH order need nothing from each other: side by side.
+    _, tris = ordered(lambda job: job(), (bvh.worst_sah_cost, lambda: take_rows(tris, bvh.order)))
     tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
     powers = None
