@@ -38,18 +38,21 @@ def _line_of(data: bytes, offset: int) -> int:
 
 
 def mtllib_specs(data: bytes) -> list[str]:
-    """The text after ``mtllib`` of every mtllib line, in order. ``bytes.find`` jumps from one
-    occurrence of the word to the next, and the line regex runs only there: a 40 MB OBJ costs
-    milliseconds where a MULTILINE regex over all of it costs 0.2 s (issue #23)."""
-    specs, seen, pos = [], set(), data.find(b"mtllib")
-    while pos >= 0:
-        start = data.rfind(b"\n", 0, pos) + 1
-        if start not in seen:
-            seen.add(start)
-            m = _MTLLIB.match(data, start)
-            if m is not None:
-                specs.append(m.group(1).decode("utf-8", "replace"))
-        pos = data.find(b"mtllib", pos + 6)
+    """The text after ``mtllib`` of every mtllib line, in order. The word is found by its last
+    byte, ``b``, which numbers never hold: a one-byte ``find`` is a memchr (6 ms for 40 MB against
+    25 ms for the six-byte word, issue #23); the line regex runs only where the word stands (a
+    MULTILINE regex over all of it costs 0.2 s)."""
+    specs, seen, q = [], set(), data.find(b"b", 5)
+    while q >= 0:
+        pos = q - 5
+        if data[pos:q + 1] == b"mtllib":
+            start = data.rfind(b"\n", 0, pos) + 1
+            if start not in seen:
+                seen.add(start)
+                m = _MTLLIB.match(data, start)
+                if m is not None:
+                    specs.append(m.group(1).decode("utf-8", "replace"))
+        q = data.find(b"b", q + 1)
     return specs
 
 
