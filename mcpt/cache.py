@@ -172,20 +172,10 @@ class Store:
         :func:`wait` joins every pending write."""
         path = self.path(key)
         _join(path)
-        thread = threading.Thread(target=self._put_niced, args=(key, meta, arrays), name=f"mcpt-cache-{key[:8]}")
+        thread = threading.Thread(target=self.put, args=(key, meta, arrays), name=f"mcpt-cache-{key[:8]}")
         with _PENDING_LOCK:
             _PENDING[path] = thread
         thread.start()
-
-    def _put_niced(self, key: str, meta: dict, arrays: dict[str, np.ndarray]) -> None:
-        """:meth:`put` at the lowest CPU priority (Linux: a thread is a task, its own nice value):
-        its CRCs and copies then take what the set-up and the passes leave of the cores, instead of
-        half of them (issue #23: the 10^6-triangle set-up writes ~200 MB behind itself)."""
-        try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
-        except (AttributeError, OSError):
-            pass  # no per-thread priority here: written at the process's
-        self.put(key, meta, arrays)
 
     def put(self, key: str, meta: dict, arrays: dict[str, np.ndarray]) -> Path | None:
         """Write the entry atomically; returns its path (None when writing failed)."""
