@@ -174,6 +174,15 @@ f 3 1 2
     assert mesh.faces.tolist() == [[2, 1, 0], [0, 2, 4]]  # vertices numbered by first use
 
 
+def test_assemble_leaves_the_readers_arrays_alone():
+    """Without a transform the Mesh (whose arrays are read-only) does not share the reader's."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float64)
+    raw = RawMesh(Path("t.obj"), [RawPart("p", v, np.array([0, 1, 2]), 0)], [MeshMaterial("m")])
+    mesh = assemble(raw)
+    assert mesh.vertices is not v and v.flags.writeable
+    assert np.array_equal(mesh.vertices, v)
+
+
 def test_only_degenerate_triangles_is_an_error(tmp_path):
     obj = write(tmp_path / "flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
     with pytest.raises(MeshError, match="flat.obj.*no triangles"):

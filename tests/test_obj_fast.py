@@ -222,6 +222,7 @@ def test_files_read_in_blocks_match_assimp(tmp_path, monkeypatch, block):
     ("f 1 2 3\nf 1 2\n", False),                                     # two corners
     ("f 1 2 3\nf 1 2 3 4 5\n", False),                               # a pentagon
     ("f 1 2 3\nf 1 2 3 # c\n", False),                               # a comment after a face
+    ("f 1 2 3\nf 1 2 99999999999999999999\n", False),                # past 18 digits
 ])
 def test_blocks_of_v_faces_match_assimp(tmp_path, monkeypatch, faces, taken):
     """Blocks made only of ``v``-form face lines are read by numpy's integer parser in one call
@@ -240,6 +241,8 @@ def test_blocks_of_v_faces_match_assimp(tmp_path, monkeypatch, faces, taken):
     if taken:
         assert used and all(u is not None for u in used)
         assert_same(fast, assimp_only(path, False, monkeypatch))
+    else:
+        assert None in used  # the fast path declined the bad line's block itself
 
 
 def test_quads_are_fanned_from_their_concave_corner_as_assimp(tmp_path, monkeypatch):

@@ -61,3 +61,5 @@ def test_take_rows_into_out_equals_fancy_indexing():
         take_rows(a, np.array([[50, 0, 1]]), out=np.empty((1, 3, 3), np.float32))
     with pytest.raises(ValueError):
         take_rows(a, index, out=np.empty((40, 3, 3), np.float64))
+    empty = np.empty((0, 3, 3), np.float32)
+    assert take_rows(a, np.zeros((0, 3), np.int64), out=empty) is empty

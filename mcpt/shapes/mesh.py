@@ -169,6 +169,8 @@ def assemble(
 
     if matrix is not None:
         vertices, face_arr, normal_arr = _transform(path, matrix, vertices, face_arr, normal_arr)
+    elif vertices is raw.parts[0].vertices:
+        vertices = vertices.copy()  # the Mesh's arrays are made read-only: not the caller's
 
     # Degenerate triangles, measured in float64 after the transform (what will be rendered), and
     # repeated ones (below) need nothing from each other: found side by side on the thread pool,

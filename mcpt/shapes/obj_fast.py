@@ -220,6 +220,8 @@ def _v_faces(data: bytes, n_lines: int) -> dict | None:
     if text.count(b" 0") + 1 != n_lines:
         return None
     values = np.fromstring(text, np.int64, sep=" ")
+    if len(values) and values.max() >= 10**18:
+        return None  # past 18 digits (read as 2^63 - 1 here): the general path refuses them
     if len(values) == 4 * n_lines:
         rows = values.reshape(n_lines, 4)
         if not rows[:, 0].any() and rows[:, 1:].all():  # all triangles: a zero, three indices

@@ -32,6 +32,8 @@ def take_rows(a: np.ndarray, index: np.ndarray, out: np.ndarray | None = None) -
         return np.take(_as_items(a), index).view(a.dtype).reshape(index.shape + a.shape[1:])
     if not out.flags.c_contiguous or out.dtype != a.dtype or out.shape != index.shape + a.shape[1:]:
         raise ValueError("take_rows writes into a C-contiguous array of the result's shape and dtype")
+    if index.size == 0:
+        return out  # no rows (an empty array has no void view)
     # mode="clip" writes straight into ``out`` (the default mode buffers it: a copy more), and is
     # exact for indices already in range; others (negative, or an IndexError to raise) take it.
     in_range = index.size == 0 or (index.min() >= 0 and index.max() < len(a))
