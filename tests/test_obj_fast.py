@@ -64,7 +64,7 @@ NUMBERS = ["1.3", "-0.5", "0.5", "1.", "+2.25", "123456789.123456789012345678", 
 def test_numbers_parse_as_assimp_parses_them(tmp_path, monkeypatch):
     """fast_atoreal_move<float> is not a correctly rounded parse: its float32 sums and powf
     exponents are reproduced (every token here lands on a different vertex row). Coordinates past
-    ~2.5e13 are left to Assimp by the join check (obj_join._near_pairs), so stop there."""
+    ~1.6e13 are left to Assimp by the join check (obj_join._near_pairs: 2^60 of its steps), so stop there."""
     rows = [f"v {x} {i}.25 {-i}" for i, x in enumerate(NUMBERS)]
     rows += [f"v 1 {i}e-{i} {i}.5" for i in range(1, 46)] + [f"v 2 3.{i}e{i} {i}.75" for i in range(0, 13)]
     n = len(rows)

@@ -61,7 +61,7 @@ def _near_pairs(rows: np.ndarray) -> bool:
     with np.errstate(over="ignore", invalid="ignore"):
         step = np.floor(r * (1.0 / (1.25 * JOIN_EPSILON)))
     if not np.isfinite(step).all() or np.abs(step).max() > 2.0**60:
-        return True
+        return True  # coordinates past ~1.6e13: int64 keys could wrap; Assimp decides
     step = step.astype(np.int64)
     mult = (1, 0x9E3779B1, 0x85EBCA77)[:k]
     cols = [np.ascontiguousarray(step[:, ax]) for ax in range(k)]
