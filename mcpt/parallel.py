@@ -71,6 +71,12 @@ def ordered(fn: Callable, items: Iterable) -> list:
             f.cancel()
 
 
+def side_by_side(*jobs: Callable) -> list:
+    """The results of the calls ``job()``, in order, the calls spread over the pool's threads
+    (:func:`ordered` of independent steps)."""
+    return ordered(lambda job: job(), jobs)
+
+
 #: Fewer rows than this are one chunk (a thread's hand-off costs more than it saves).
 MIN_CHUNK_ROWS = 1 << 16
 

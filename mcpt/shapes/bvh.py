@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..parallel import ordered, row_chunks
+from ..parallel import ordered, row_chunks, side_by_side
 from .geometry import pack_triangles
 from .rows import put_rows, take_rows
 
@@ -387,5 +387,5 @@ def _depth_first(nodes: np.ndarray, leaf: np.ndarray, counts: np.ndarray, leaf_f
             recs[:, slot + 1, 3] = 0
         put_rows(out, (addr[interior][:, None] + np.arange(4)).ravel(), recs.reshape(-1, 4))
 
-    ordered(lambda job: job(), (triangles, interior_nodes))
+    side_by_side(triangles, interior_nodes)
     return out

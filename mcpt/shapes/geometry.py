@@ -10,6 +10,14 @@ import numpy as np
 from ..parallel import ordered, row_chunks
 
 
+def column_bounds(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi): the minimum and maximum of every column of an (N, k) array (N >= 1). A column at
+    a time: min/max over axis 0 of an (N, 3) array is 5x slower (0.039 against 0.007 s at
+    5 * 10^5 vertices, issue #23)."""
+    return (np.array([a[:, j].min() for j in range(a.shape[1])]),
+            np.array([a[:, j].max() for j in range(a.shape[1])]))
+
+
 def pack_triangles(tris: np.ndarray, tri_material: np.ndarray) -> np.ndarray:
     """Three RGBA32UI texels per triangle: (v0 bits, material), (v1 bits, 0), (v2 bits, 0)."""
     f = tris.shape[0]

@@ -27,7 +27,7 @@ _GRIDS = 4
 
 def _first_equal_rows(table: np.ndarray) -> np.ndarray | None:
     """For every row of a float32 table, the index of the first row equal to it as floats
-    (-0.0 equals 0.0: libstdc++ hashes both to 0, so Assimp joins them; _joined keeps the bits
+    (-0.0 equals 0.0: libstdc++ hashes both to 0, so Assimp joins them; joined keeps the bits
     of the corner that uses the value first, as Assimp does); None when every row is its own
     first (no two rows equal: the usual case). Raises Unsupported for a pair of near rows
     (:func:`_near_pairs`)."""
@@ -36,9 +36,10 @@ def _first_equal_rows(table: np.ndarray) -> np.ndarray | None:
     if ids is None:
         raise Unsupported("hash collision")  # different rows, one 64-bit hash: let Assimp join
     distinct = ids == np.arange(len(ids))
-    if _near_pairs(table if distinct.all() else table[distinct]):
+    every = bool(distinct.all())
+    if _near_pairs(table if every else table[distinct]):
         raise Unsupported("values within Assimp's join tolerance")
-    return None if distinct.all() else ids
+    return None if every else ids
 
 
 def _near_pairs(rows: np.ndarray) -> bool:

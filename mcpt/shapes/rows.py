@@ -36,7 +36,7 @@ def take_rows(a: np.ndarray, index: np.ndarray, out: np.ndarray | None = None) -
         return out  # no rows (an empty array has no void view)
     # mode="clip" writes straight into ``out`` (the default mode buffers it: a copy more), and is
     # exact for indices already in range; others (negative, or an IndexError to raise) take it.
-    in_range = index.size == 0 or (index.min() >= 0 and index.max() < len(a))
+    in_range = index.min() >= 0 and index.max() < len(a)
     np.take(_as_items(a), index.reshape(-1), out=_as_items(out.reshape((-1,) + a.shape[1:])),
             mode="clip" if in_range else "raise")
     return out

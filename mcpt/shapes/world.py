@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import McptError
-from ..parallel import ordered, row_chunks
+from ..parallel import ordered, row_chunks, side_by_side
 from ..scene import Scene
 from ..scene.material_meaning import MaterialResolver
 from ..shading.emission_texture import triangle_powers
@@ -125,7 +125,7 @@ def load_world(scene: Scene) -> World:
     bvh = build_bvh(tris)
     # The worst subtree cost (the features ask for it: BVH.dense; now, so the set-up cache keeps
     # it) and the triangles in BVH order need nothing from each other: side by side.
-    _, tris = ordered(lambda job: job(), (bvh.worst_sah_cost, lambda: take_rows(tris, bvh.order)))
+    _, tris = side_by_side(bvh.worst_sah_cost, lambda: take_rows(tris, bvh.order))
     tri_mat, normals, uvs = _per_triangle(parts, bool(resolver.textures), keep, bvh.order)
     table = resolver.table()
     powers = None
